@@ -1,0 +1,20 @@
+# All dependencies come from Debian packages (scripts/setup.sh installs them).
+find_package(Threads REQUIRED)
+find_package(CapnProto REQUIRED)
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(ZMQ REQUIRED IMPORTED_TARGET libzmq)
+find_path(CPPZMQ_INCLUDE_DIR zmq.hpp REQUIRED)
+find_package(HDF5 REQUIRED COMPONENTS C)
+find_package(yaml-cpp REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(OpenMP COMPONENTS CXX)
+
+# HDF5's CMake config gives variables, not a target: wrap them once.
+if(NOT TARGET cosim::hdf5)
+  add_library(cosim_hdf5 INTERFACE)
+  target_include_directories(cosim_hdf5 SYSTEM INTERFACE ${HDF5_C_INCLUDE_DIRS} ${HDF5_INCLUDE_DIRS})
+  target_link_libraries(cosim_hdf5 INTERFACE ${HDF5_C_LIBRARIES} ${HDF5_LIBRARIES})
+  target_compile_definitions(cosim_hdf5 INTERFACE ${HDF5_DEFINITIONS})
+  add_library(cosim::hdf5 ALIAS cosim_hdf5)
+endif()

@@ -1,0 +1,66 @@
+#pragma once
+// Framing of one Envelope on a ZeroMQ multipart message.
+//
+// Frames: [header][segment 0]...[segment n-1]. The header is 8 bytes: the magic
+// "CSM1" and the segment count (uint32, little endian). Segments travel as
+// separate frames so that nothing is copied on either side: the sender hands
+// the builder's segments to ZeroMQ (freed when ZeroMQ is done with them), the
+// receiver reads the frames in place through a SegmentArrayMessageReader.
+// Payloads beyond Cap'n Proto's default 64 MiB traversal limit are read with a
+// limit derived from the actual message size (a reader cannot be made to
+// traverse more than a few times what it received).
+
+#include <capnp/message.h>
+#include <zmq.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "session.capnp.h"
+
+namespace cosim::wire {
+
+/// An Envelope under construction. Owns its builder; moving is cheap.
+class OutMessage {
+ public:
+  /// firstSegmentWords sizes the first allocation; pass the expected payload
+  /// size in 8-byte words to keep a large message in one segment.
+  explicit OutMessage(std::size_t firstSegmentWords = 1024);
+  proto::Envelope::Builder envelope();
+  /// The ZeroMQ frames that carry this message, sharing its memory.
+  std::vector<zmq::message_t> frames() const;
+  std::size_t sizeInBytes() const;
+
+ private:
+  std::shared_ptr<capnp::MallocMessageBuilder> builder_;
+};
+
+/// A received Envelope; keeps the frames it points into alive.
+class InMessage {
+ public:
+  proto::Envelope::Reader envelope() const { return root_; }
+  std::size_t sizeInBytes() const { return bytes_; }
+
+  /// Decodes frames (header + segments). Throws MalformedMessage with a
+  /// description of what is wrong; never reads out of bounds.
+  static InMessage decode(std::vector<zmq::message_t>&& frames);
+
+ private:
+  InMessage() = default;
+  std::vector<zmq::message_t> frames_;
+  std::vector<std::unique_ptr<capnp::word[]>> realigned_;
+  std::unique_ptr<capnp::SegmentArrayMessageReader> reader_;
+  proto::Envelope::Reader root_;
+  std::size_t bytes_ = 0;
+};
+
+struct MalformedMessage : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Human-readable name of the envelope's body ("advance", "hello" ...).
+std::string bodyName(proto::Envelope::Reader env);
+
+}  // namespace cosim::wire

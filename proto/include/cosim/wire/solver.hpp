@@ -1,0 +1,78 @@
+#pragma once
+// The narrow interface every solver process implements. The SolverHost turns
+// protocol messages into these calls; a solver never touches a socket.
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "data.capnp.h"
+#include "session.capnp.h"
+
+namespace cosim::wire {
+
+struct SolverInfo {
+  std::string kind;     // "dem", "fem", "pd", "mock" ...
+  std::string version;
+  std::vector<std::string> capabilities;
+};
+
+/// What a solver throws for anything the coupler should hear about. The
+/// message names the file, key, entity or step; the code classifies it.
+class SolverError : public std::runtime_error {
+ public:
+  SolverError(proto::Error::Code code, const std::string& message)
+      : std::runtime_error(message), code_(code) {}
+  proto::Error::Code code() const { return code_; }
+
+ private:
+  proto::Error::Code code_;
+};
+
+struct SetupContext {
+  std::string sceneFile;
+  std::string sceneYaml;
+  std::string instance;
+  std::string runDir;
+  proto::CouplingData::Reader inputs;
+};
+
+struct AdvanceRequest {
+  std::uint32_t steps = 0;
+  double dt = 0.0;
+  double time = 0.0;
+  std::uint64_t exchange = 0;
+  proto::CouplingData::Reader inputs;
+  std::optional<proto::CouplingData::Reader> inputsEnd;  // for interpolation in sub-steps
+};
+
+using NamedValues = std::vector<std::pair<std::string, double>>;
+
+class Solver {
+ public:
+  virtual ~Solver() = default;
+  virtual SolverInfo info() const = 0;
+  /// Reads the solver's own section of the scene; fills the coupling data
+  /// the couplings need at time zero.
+  virtual void setup(const SetupContext& context, proto::CouplingData::Builder outputs) = 0;
+  virtual void advance(const AdvanceRequest& request, proto::CouplingData::Builder outputs) = 0;
+  /// Named fields on request (empty list = all it offers).
+  virtual void fields(const std::vector<std::string>& names, proto::CouplingData::Builder out) = 0;
+  /// Writes the full state to path; returns the bytes written.
+  virtual std::uint64_t checkpoint(const std::string& path) = 0;
+  virtual void restore(const std::string& path) = 0;
+  virtual double time() const = 0;
+  virtual std::uint64_t step() const = 0;
+  /// Largest stable step for the current state; 0 when unlimited.
+  virtual double criticalDt() const = 0;
+  virtual NamedValues energies() const = 0;
+  /// Size hint (8-byte words) for reply buffers, so large outputs stay in one segment.
+  virtual std::size_t outputWordsHint() const { return 1024; }
+};
+
+/// Capabilities every conforming solver has.
+const std::vector<std::string>& baseCapabilities();
+
+}  // namespace cosim::wire

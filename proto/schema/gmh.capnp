@@ -1,0 +1,19 @@
+@0xe4cf483702d1d458;
+# Hierarchical FEM x DEM (GMH, Liu 2016): one unit cell per quadrature point.
+using Cxx = import "/capnp/c++.capnp";
+$Cxx.namespace("cosim::proto");
+
+struct UnitCellJobs {
+  cellIds @0 :List(UInt32);
+  strainIncrements @1 :List(Float64);   # 9 per cell, corotational, row-major (Liu Eq. 60)
+  dt @2 :Float64;                       # coarse time step the increment spans
+}
+
+struct UnitCellResults {
+  cellIds @0 :List(UInt32);
+  stresses @1 :List(Float64);           # 9 per cell, corotational Cauchy stress (Liu Eq. 44b)
+  porosities @2 :List(Float64);
+  coordinationNumbers @3 :List(Float64);
+  unbalancedForceIndices @4 :List(Float64); # Liu Eq. 57
+  relaxationSteps @5 :List(UInt32);
+}

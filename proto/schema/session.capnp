@@ -1,0 +1,123 @@
+@0xe65c8dcc6fd05640;
+# Session control between the coupler (ROUTER) and a solver (DEALER).
+# Every message is one Envelope. Requests carry a sequence number that grows by
+# one per request on a connection; a reply names the request it answers in
+# replyTo. Schemas evolve only by adding fields with new ordinals.
+using Cxx = import "/capnp/c++.capnp";
+$Cxx.namespace("cosim::proto");
+
+using Data = import "data.capnp";
+
+const protocolMajor :UInt16 = 1;
+const protocolMinor :UInt16 = 0;
+
+struct Envelope {
+  seq @0 :UInt64;          # sender's sequence number (requests and replies)
+  replyTo @1 :UInt64;      # seq of the request this answers; 0 for requests
+  body :union {
+    hello @2 :Hello;             # solver -> coupler, first message
+    welcome @3 :Welcome;         # coupler -> solver, hello accepted
+    setup @4 :Setup;             # coupler -> solver
+    setupDone @5 :SetupDone;
+    advance @6 :Advance;
+    advanced @7 :Advanced;
+    fieldsRequest @8 :FieldsRequest;
+    fields @9 :Fields;
+    checkpoint @10 :Checkpoint;
+    checkpointDone @11 :CheckpointDone;
+    restore @12 :Restore;
+    restored @13 :Restored;
+    heartbeat @14 :Heartbeat;    # both ways, never answered
+    error @15 :Error;
+    shutdown @16 :Shutdown;
+    shutdownDone @17 :Void;
+  }
+}
+
+struct Hello {
+  protocolMajor @0 :UInt16;
+  protocolMinor @1 :UInt16;
+  solverKind @2 :Text;       # "dem", "fem", "pd", "mock" ...
+  version @3 :Text;          # the binary's version string
+  instance @4 :Text;         # its instance name (also its routing id)
+  capabilities @5 :List(Text);
+  pid @6 :UInt32;
+  host @7 :Text;
+}
+
+struct Welcome {
+  protocolMajor @0 :UInt16;
+  protocolMinor @1 :UInt16;
+  heartbeatIntervalS @2 :Float64;
+  heartbeatTimeoutS @3 :Float64;
+}
+
+struct Setup {
+  sceneFile @0 :Text;        # for messages: errors name file:line
+  sceneYaml @1 :Text;        # whole scene text (no shared filesystem needed)
+  instance @2 :Text;         # which entry of solvers: is this one
+  runDir @3 :Text;           # where the solver writes its own output
+  inputs @4 :Data.CouplingData;  # setup-time coupling data (weight profiles ...)
+}
+
+struct SetupDone {
+  criticalDt @0 :Float64;    # 0 when the solver has no stability limit
+  outputs @1 :Data.CouplingData; # what the couplings need at time zero
+  energies @2 :List(Data.NamedValue);
+}
+
+struct Advance {
+  steps @0 :UInt32;          # number of sub-steps
+  dt @1 :Float64;            # sub-step size
+  time @2 :Float64;          # simulated time at the start of the request
+  exchange @3 :UInt64;       # exchange counter (for messages and output)
+  inputs @4 :Data.CouplingData;
+  inputsEnd @5 :Data.CouplingData; # when present: interface data at the end of the
+                                   # interval, for linear interpolation in sub-steps
+}
+
+struct Advanced {
+  time @0 :Float64;          # simulated time after the request
+  step @1 :UInt64;           # total steps taken
+  computeSeconds @2 :Float64; # wall time spent inside the solver's advance
+  criticalDt @3 :Float64;
+  energies @4 :List(Data.NamedValue);
+  outputs @5 :Data.CouplingData;
+}
+
+struct FieldsRequest {
+  names @0 :List(Text);      # empty = everything the solver offers
+}
+
+struct Fields {
+  time @0 :Float64;
+  data @1 :Data.CouplingData;
+}
+
+struct Checkpoint { path @0 :Text; }
+struct CheckpointDone { path @0 :Text; bytes @1 :UInt64; }
+struct Restore { path @0 :Text; }
+struct Restored { time @0 :Float64; step @1 :UInt64; }
+
+struct Heartbeat {
+  sentAtS @0 :Float64;       # sender's monotonic clock
+  busy @1 :Bool;             # a request is being computed
+}
+
+struct Error {
+  code @0 :Code;
+  enum Code {
+    malformed @0;            # bytes that are not an Envelope
+    outOfOrder @1;           # sequence number not the next one
+    unexpected @2;           # valid message at the wrong time (advance before setup ...)
+    unsupported @3;          # a message kind this peer does not handle
+    badInput @4;             # scene section, file or data rejected (message names it)
+    solverFailure @5;        # the computation failed (NaN, divergence ...)
+    protocolMismatch @6;
+    internal @7;
+  }
+  message @1 :Text;
+  fatal @2 :Bool;            # the sender is going to exit
+}
+
+struct Shutdown { reason @0 :Text; }

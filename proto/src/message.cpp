@@ -1,0 +1,130 @@
+#include "cosim/wire/message.hpp"
+
+#include <kj/exception.h>
+
+#include <cstring>
+
+namespace cosim::wire {
+namespace {
+
+constexpr char kMagic[4] = {'C', 'S', 'M', '1'};
+constexpr std::size_t kHeaderBytes = 8;
+// A reader may traverse at most this many times the words it received: enough
+// for code that reads a list a few dozen times, still bounded against
+// amplification by hostile pointers.
+constexpr std::uint64_t kTraversalFactor = 64;
+
+void releaseBuilder(void* /*data*/, void* hint) {
+  delete static_cast<std::shared_ptr<capnp::MallocMessageBuilder>*>(hint);
+}
+
+}  // namespace
+
+OutMessage::OutMessage(std::size_t firstSegmentWords)
+    : builder_(std::make_shared<capnp::MallocMessageBuilder>(
+          static_cast<unsigned>(std::max<std::size_t>(firstSegmentWords, 64)))) {}
+
+proto::Envelope::Builder OutMessage::envelope() {
+  return builder_->getRoot<proto::Envelope>();
+}
+
+std::vector<zmq::message_t> OutMessage::frames() const {
+  auto segments = builder_->getSegmentsForOutput();
+  std::vector<zmq::message_t> out;
+  out.reserve(segments.size() + 1);
+  char header[kHeaderBytes];
+  std::memcpy(header, kMagic, 4);
+  const auto count = static_cast<std::uint32_t>(segments.size());
+  std::memcpy(header + 4, &count, 4);
+  out.emplace_back(header, kHeaderBytes);
+  for (auto segment : segments) {
+    auto bytes = segment.asBytes();
+    // Zero-copy: ZeroMQ keeps the builder alive until it has sent this frame.
+    out.emplace_back(const_cast<kj::byte*>(bytes.begin()), bytes.size(), &releaseBuilder,
+                     new std::shared_ptr<capnp::MallocMessageBuilder>(builder_));
+  }
+  return out;
+}
+
+std::size_t OutMessage::sizeInBytes() const {
+  std::size_t total = 0;
+  for (auto segment : builder_->getSegmentsForOutput()) total += segment.asBytes().size();
+  return total;
+}
+
+InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
+  if (frames.empty()) throw MalformedMessage("empty message");
+  const auto& header = frames.front();
+  if (header.size() != kHeaderBytes || std::memcmp(header.data(), kMagic, 4) != 0)
+    throw MalformedMessage("bad header frame (" + std::to_string(header.size()) +
+                           " bytes, expected the 8-byte CSM1 header)");
+  std::uint32_t count = 0;
+  std::memcpy(&count, static_cast<const char*>(header.data()) + 4, 4);
+  if (count == 0 || count != frames.size() - 1)
+    throw MalformedMessage("header announces " + std::to_string(count) + " segments, " +
+                           std::to_string(frames.size() - 1) + " arrived");
+  InMessage in;
+  in.frames_ = std::move(frames);
+  std::vector<kj::ArrayPtr<const capnp::word>> segments;
+  segments.reserve(count);
+  for (std::size_t i = 1; i < in.frames_.size(); ++i) {
+    auto& frame = in.frames_[i];
+    if (frame.size() == 0 || frame.size() % sizeof(capnp::word) != 0)
+      throw MalformedMessage("segment " + std::to_string(i - 1) + " has " +
+                             std::to_string(frame.size()) + " bytes, not a positive multiple of 8");
+    const std::size_t words = frame.size() / sizeof(capnp::word);
+    const capnp::word* data = static_cast<const capnp::word*>(frame.data());
+    if (reinterpret_cast<std::uintptr_t>(frame.data()) % alignof(capnp::word) != 0) {
+      // ZeroMQ stores small frames inline or inside its batch buffer: copy
+      // those few bytes to an aligned place rather than read unaligned words.
+      auto copy = std::make_unique<capnp::word[]>(words);
+      std::memcpy(copy.get(), frame.data(), frame.size());
+      data = copy.get();
+      in.realigned_.push_back(std::move(copy));
+    }
+    segments.emplace_back(data, words);
+    in.bytes_ += frame.size();
+  }
+  capnp::ReaderOptions options;
+  const std::uint64_t totalWords = in.bytes_ / sizeof(capnp::word);
+  options.traversalLimitInWords =
+      std::max<std::uint64_t>(options.traversalLimitInWords, totalWords * kTraversalFactor);
+  try {
+    in.reader_ = std::make_unique<capnp::SegmentArrayMessageReader>(
+        kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>>(segments.data(), segments.size()),
+        options);
+    in.root_ = in.reader_->getRoot<proto::Envelope>();
+    // Walk every pointer once now, so that later reads cannot fail halfway
+    // through a request's handling.
+    (void)in.root_.totalSize();
+    (void)in.root_.getBody().which();
+  } catch (const kj::Exception& e) {
+    throw MalformedMessage(std::string("not a valid Envelope: ") + e.getDescription().cStr());
+  }
+  return in;
+}
+
+std::string bodyName(proto::Envelope::Reader env) {
+  using W = proto::Envelope::Body::Which;
+  switch (env.getBody().which()) {
+    case W::HELLO: return "hello";
+    case W::WELCOME: return "welcome";
+    case W::SETUP: return "setup";
+    case W::SETUP_DONE: return "setupDone";
+    case W::ADVANCE: return "advance";
+    case W::ADVANCED: return "advanced";
+    case W::FIELDS_REQUEST: return "fieldsRequest";
+    case W::FIELDS: return "fields";
+    case W::CHECKPOINT: return "checkpoint";
+    case W::CHECKPOINT_DONE: return "checkpointDone";
+    case W::RESTORE: return "restore";
+    case W::RESTORED: return "restored";
+    case W::HEARTBEAT: return "heartbeat";
+    case W::ERROR: return "error";
+    case W::SHUTDOWN: return "shutdown";
+    case W::SHUTDOWN_DONE: return "shutdownDone";
+  }
+  return "unknown(" + std::to_string(static_cast<int>(env.getBody().which())) + ")";
+}
+
+}  // namespace cosim::wire

@@ -1,0 +1,297 @@
+#include "cosim/wire/peer_session.hpp"
+
+#include <cstdio>
+
+#include "cosim/wire/clock.hpp"
+#include "cosim/wire/log.hpp"
+
+namespace cosim::wire {
+namespace {
+using Which = proto::Envelope::Body::Which;
+constexpr const char* kHeartbeatSuffix = "#hb";
+
+std::string seconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.2f s", s);
+  return buf;
+}
+
+bool isReplyKind(Which w) {
+  return w == Which::SETUP_DONE || w == Which::ADVANCED || w == Which::FIELDS ||
+         w == Which::CHECKPOINT_DONE || w == Which::RESTORED || w == Which::SHUTDOWN_DONE ||
+         w == Which::ERROR;
+}
+
+OutMessage errorMessage(proto::Error::Code code, const std::string& text, std::uint64_t replyTo) {
+  OutMessage m;
+  auto env = m.envelope();
+  env.setReplyTo(replyTo);
+  auto e = env.getBody().initError();
+  e.setCode(code);
+  e.setMessage(text);
+  return m;
+}
+}  // namespace
+
+PeerSession::PeerSession(RouterSocket& socket, LinkOptions options)
+    : socket_(socket), options_(options) {}
+
+PeerSession::Peer& PeerSession::peerRef(const std::string& name) {
+  auto it = peers_.find(name);
+  if (it == peers_.end()) throw std::out_of_range("no peer named '" + name + "'");
+  return it->second;
+}
+const PeerSession::Peer& PeerSession::peerRef(const std::string& name) const {
+  auto it = peers_.find(name);
+  if (it == peers_.end()) throw std::out_of_range("no peer named '" + name + "'");
+  return it->second;
+}
+
+const PeerInfo& PeerSession::info(const std::string& peer) const { return peerRef(peer).info; }
+const PeerTraffic& PeerSession::traffic(const std::string& peer) const { return peerRef(peer).traffic; }
+
+std::vector<std::string> PeerSession::peers() const {
+  std::vector<std::string> names;
+  for (const auto& [name, p] : peers_) names.push_back(name);
+  return names;
+}
+
+std::string PeerSession::lastHeard(const std::string& peer) const {
+  auto it = peers_.find(peer);
+  if (it == peers_.end()) return "nothing (it never said hello)";
+  return it->second.lastHeardWhat + ", " + seconds(monotonicSeconds() - it->second.lastHeardAt) + " ago";
+}
+
+void PeerSession::fault(const std::string& peer, const std::string& what) const {
+  std::string who = "peer '" + peer + "'";
+  if (auto it = peers_.find(peer); it != peers_.end() && it->second.info.pid != 0)
+    who += " (" + it->second.info.kind + ", pid " + std::to_string(it->second.info.pid) + " on " +
+           it->second.info.host + ")";
+  throw PeerFault(peer, who + " at " + context_ + ": " + what + "; last heard: " + lastHeard(peer));
+}
+
+void PeerSession::onHello(const std::string& name, InMessage&& message) {
+  auto h = message.envelope().getBody().getHello();
+  Peer p;
+  p.info.name = name;
+  p.info.kind = h.getSolverKind();
+  p.info.version = h.getVersion();
+  p.info.host = h.getHost();
+  p.info.pid = h.getPid();
+  p.info.protocolMajor = h.getProtocolMajor();
+  p.info.protocolMinor = h.getProtocolMinor();
+  for (auto c : h.getCapabilities()) p.info.capabilities.emplace_back(c.cStr());
+  p.lastHeardAt = monotonicSeconds();
+  p.lastHeardWhat = "hello";
+  p.nextSeq = 1;
+  if (peers_.count(name)) log::warn("peer '" + name + "' said hello again; starting its session anew");
+  peers_[name] = std::move(p);
+}
+
+void PeerSession::take(Received&& r) {
+  std::string name = r.identity;
+  const bool heartbeatChannel =
+      name.size() > 3 && name.compare(name.size() - 3, 3, kHeartbeatSuffix) == 0;
+  if (heartbeatChannel) name.resize(name.size() - 3);
+  if (!r.message) {
+    log::warn("dropped a malformed message from '" + r.identity + "' (" + std::to_string(r.bytes) +
+              " bytes): " + r.error);
+    socket_.send(r.identity, errorMessage(proto::Error::Code::MALFORMED, "malformed message: " + r.error, 0));
+    return;
+  }
+  auto env = r.message->envelope();
+  const auto which = env.getBody().which();
+  if (!heartbeatChannel && which == Which::HELLO) {
+    if (!expected_.count(name)) {
+      std::string known;
+      for (const auto& e : expected_) known += (known.empty() ? "" : ", ") + e;
+      log::warn("refused hello from unknown instance '" + name + "'");
+      socket_.send(r.identity, errorMessage(proto::Error::Code::UNEXPECTED,
+                                            "this run has no solver instance '" + name +
+                                                "' (it expects: " + known + ")", env.getSeq()));
+      return;
+    }
+    onHello(name, std::move(*r.message));
+    peers_[name].traffic.messagesReceived++;
+    peers_[name].traffic.bytesReceived += r.bytes;
+    return;
+  }
+  auto it = peers_.find(name);
+  if (it == peers_.end()) {
+    log::warn("dropped '" + bodyName(env) + "' from '" + r.identity + "', which has not said hello");
+    if (!heartbeatChannel)
+      socket_.send(r.identity, errorMessage(proto::Error::Code::UNEXPECTED, "say hello first", env.getSeq()));
+    return;
+  }
+  Peer& p = it->second;
+  p.traffic.messagesReceived++;
+  p.traffic.bytesReceived += r.bytes;
+  p.lastHeardAt = monotonicSeconds();
+  if (which == Which::HEARTBEAT) {
+    p.lastHeardWhat = env.getBody().getHeartbeat().getBusy() ? "heartbeat (computing)" : "heartbeat (idle)";
+    return;
+  }
+  const auto replyTo = env.getReplyTo();
+  p.lastHeardWhat = "'" + bodyName(env) + "'" + (replyTo ? " in reply to seq " + std::to_string(replyTo) : "");
+  if (isReplyKind(which) && p.deadlines.count(replyTo)) {
+    p.deadlines.erase(replyTo);
+    p.replies.emplace(replyTo, std::move(*r.message));
+    return;
+  }
+  if (which == Which::ERROR) {
+    auto e = env.getBody().getError();
+    if (e.getFatal()) fault(name, std::string("reported a fatal error: ") + e.getMessage().cStr());
+    log::warn("peer '" + name + "' reported: " + e.getMessage().cStr());
+    return;
+  }
+  log::warn("dropped '" + bodyName(env) + "' from '" + name + "' (seq " + std::to_string(env.getSeq()) +
+            ", reply to " + std::to_string(replyTo) + "): no request is waiting for it");
+}
+
+void PeerSession::sendHeartbeats() {
+  const double now = monotonicSeconds();
+  if (now < nextHeartbeat_) return;
+  nextHeartbeat_ = now + options_.heartbeatIntervalS;
+  for (auto& [name, p] : peers_) {
+    if (!p.welcomed) continue;
+    OutMessage m(64);
+    auto env = m.envelope();
+    env.setSeq(++heartbeatSeq_);
+    env.getBody().initHeartbeat().setSentAtS(now);
+    socket_.send(name + kHeartbeatSuffix, m);  // an unreachable peer shows up as silence
+  }
+}
+
+void PeerSession::checkLiveness() {
+  const double now = monotonicSeconds();
+  for (const auto& [name, p] : peers_) {
+    if (!p.welcomed) continue;
+    if (now - p.lastHeardAt > options_.heartbeatTimeoutS)
+      fault(name, "silent for " + seconds(now - p.lastHeardAt) + " (heartbeat timeout " +
+                      seconds(options_.heartbeatTimeoutS) + ")");
+    for (const auto& [seq, deadline] : p.deadlines)
+      if (now > deadline)
+        fault(name, "no reply to '" + p.kinds.at(seq) + "' (seq " + std::to_string(seq) + ") within its deadline");
+  }
+}
+
+void PeerSession::pump(std::chrono::milliseconds timeout) {
+  sendHeartbeats();
+  const double untilBeat = std::max(0.0, nextHeartbeat_ - monotonicSeconds());
+  auto wait = std::min(timeout, std::chrono::milliseconds(static_cast<long>(untilBeat * 1000.0) + 1));
+  for (auto r = socket_.receive(wait); r; r = socket_.receive(std::chrono::milliseconds(0)))
+    take(std::move(*r));
+  checkLiveness();
+  if (watchdog_) watchdog_();
+}
+
+void PeerSession::awaitHellos(const std::vector<std::string>& expected, double timeoutS) {
+  expected_.insert(expected.begin(), expected.end());
+  const double deadline = monotonicSeconds() + timeoutS;
+  while (true) {
+    std::vector<std::string> missing;
+    for (const auto& e : expected)
+      if (!peers_.count(e)) missing.push_back(e);
+    if (missing.empty()) return;
+    if (monotonicSeconds() > deadline)
+      fault(missing.front(), "no hello within " + seconds(timeoutS) + " on " + socket_.endpoint());
+    pump(std::chrono::milliseconds(100));
+  }
+}
+
+void PeerSession::welcome(const std::string& peer) {
+  Peer& p = peerRef(peer);
+  OutMessage m(64);
+  auto env = m.envelope();
+  env.setSeq(p.nextSeq++);
+  auto w = env.getBody().initWelcome();
+  w.setProtocolMajor(proto::PROTOCOL_MAJOR);
+  w.setProtocolMinor(proto::PROTOCOL_MINOR);
+  w.setHeartbeatIntervalS(options_.heartbeatIntervalS);
+  w.setHeartbeatTimeoutS(options_.heartbeatTimeoutS);
+  socket_.send(peer, m);
+  p.welcomed = true;
+  p.lastHeardAt = monotonicSeconds();
+}
+
+void PeerSession::refuse(const std::string& peer, const std::string& reason) {
+  socket_.send(peer, errorMessage(proto::Error::Code::PROTOCOL_MISMATCH, reason, 0));
+}
+
+std::uint64_t PeerSession::request(const std::string& peer, OutMessage& message, double timeoutS) {
+  Peer& p = peerRef(peer);
+  auto env = message.envelope();
+  const auto seq = p.nextSeq++;
+  env.setSeq(seq);
+  env.setReplyTo(0);
+  const std::string kind = bodyName(env.asReader());
+  if (!socket_.send(peer, message)) fault(peer, "cannot send '" + kind + "': not connected");
+  p.traffic.messagesSent++;
+  p.traffic.bytesSent += message.sizeInBytes();
+  p.deadlines[seq] = monotonicSeconds() + (timeoutS > 0 ? timeoutS : options_.requestTimeoutS);
+  p.kinds[seq] = kind;
+  return seq;
+}
+
+InMessage PeerSession::awaitReply(const std::string& peer, std::uint64_t seq) {
+  return std::move(awaitReplies({{peer, seq}}).front());
+}
+
+std::vector<InMessage> PeerSession::awaitReplies(
+    const std::vector<std::pair<std::string, std::uint64_t>>& pending) {
+  std::vector<std::optional<InMessage>> got(pending.size());
+  std::size_t remaining = pending.size();
+  while (true) {
+    for (std::size_t i = 0; i < pending.size(); ++i) {
+      if (got[i]) continue;
+      Peer& p = peerRef(pending[i].first);
+      auto it = p.replies.find(pending[i].second);
+      if (it == p.replies.end()) continue;
+      auto env = it->second.envelope();
+      if (env.getBody().which() == Which::ERROR) {
+        const auto e = env.getBody().getError();
+        const std::string kind = p.kinds[pending[i].second];
+        fault(pending[i].first, "answered '" + kind + "' (seq " + std::to_string(pending[i].second) +
+                                    ") with an error: " + e.getMessage().cStr());
+      }
+      got[i].emplace(std::move(it->second));
+      p.replies.erase(it);
+      p.kinds.erase(pending[i].second);
+      --remaining;
+    }
+    if (remaining == 0) break;
+    pump(std::chrono::milliseconds(100));
+  }
+  std::vector<InMessage> out;
+  out.reserve(got.size());
+  for (auto& g : got) out.push_back(std::move(*g));
+  return out;
+}
+
+void PeerSession::shutdownAll(const std::string& reason, double timeoutS) {
+  const double deadline = monotonicSeconds() + timeoutS;
+  std::vector<std::pair<std::string, std::uint64_t>> pending;
+  for (auto& [name, p] : peers_) {
+    if (!p.welcomed) continue;
+    OutMessage m(64);
+    m.envelope().getBody().initShutdown().setReason(reason);
+    try {
+      pending.emplace_back(name, request(name, m, timeoutS));
+    } catch (const PeerFault& e) {
+      log::warn(e.what());
+    }
+  }
+  while (monotonicSeconds() < deadline) {
+    bool all = true;
+    for (const auto& [name, seq] : pending) all = all && peers_[name].replies.count(seq);
+    if (all) break;
+    for (auto r = socket_.receive(std::chrono::milliseconds(50)); r; r = socket_.receive(std::chrono::milliseconds(0)))
+      take(std::move(*r));
+  }
+  for (auto& [name, p] : peers_) {
+    p.welcomed = false;
+    p.deadlines.clear();
+  }
+}
+
+}  // namespace cosim::wire
