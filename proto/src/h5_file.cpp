@@ -199,7 +199,11 @@ SeriesWriter::Dataset& SeriesWriter::dataset(const std::string& name, std::size_
   const hid_t space = H5Screate_simple(rank, dims, maxDims);
   const hid_t props = H5Pcreate(H5P_DATASET_CREATE);
   H5Pset_chunk(props, rank, chunk);
-  const hid_t d = H5Dcreate2(file_.group(group_), name.c_str(), H5T_NATIVE_DOUBLE, space, H5P_DEFAULT,
+  // A name with slashes ("left/energy/kinetic") lives in nested groups.
+  const std::string full = group_ + "/" + name;
+  const auto slash = full.find_last_of('/');
+  const hid_t parent = file_.group(full.substr(0, slash));
+  const hid_t d = H5Dcreate2(parent, full.substr(slash + 1).c_str(), H5T_NATIVE_DOUBLE, space, H5P_DEFAULT,
                              props, H5P_DEFAULT);
   H5Pclose(props);
   H5Sclose(space);

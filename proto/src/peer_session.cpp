@@ -135,7 +135,7 @@ void PeerSession::take(Received&& r) {
   p.lastHeardWhat = "'" + bodyName(env) + "'" + (replyTo ? " in reply to seq " + std::to_string(replyTo) : "");
   if (isReplyKind(which) && p.deadlines.count(replyTo)) {
     p.deadlines.erase(replyTo);
-    p.replies.emplace(replyTo, std::move(*r.message));
+    p.replies.emplace(replyTo, Reply{std::move(*r.message), monotonicSeconds()});
     return;
   }
   if (which == Which::ERROR) {
@@ -203,7 +203,7 @@ void PeerSession::welcome(const std::string& peer) {
   Peer& p = peerRef(peer);
   OutMessage m(64);
   auto env = m.envelope();
-  env.setSeq(p.nextSeq++);
+  env.setSeq(0);  // an answer to the hello, not a request: request seqs start at 1
   auto w = env.getBody().initWelcome();
   w.setProtocolMajor(proto::PROTOCOL_MAJOR);
   w.setProtocolMinor(proto::PROTOCOL_MINOR);
@@ -233,13 +233,13 @@ std::uint64_t PeerSession::request(const std::string& peer, OutMessage& message,
   return seq;
 }
 
-InMessage PeerSession::awaitReply(const std::string& peer, std::uint64_t seq) {
+Reply PeerSession::awaitReply(const std::string& peer, std::uint64_t seq) {
   return std::move(awaitReplies({{peer, seq}}).front());
 }
 
-std::vector<InMessage> PeerSession::awaitReplies(
+std::vector<Reply> PeerSession::awaitReplies(
     const std::vector<std::pair<std::string, std::uint64_t>>& pending) {
-  std::vector<std::optional<InMessage>> got(pending.size());
+  std::vector<std::optional<Reply>> got(pending.size());
   std::size_t remaining = pending.size();
   while (true) {
     for (std::size_t i = 0; i < pending.size(); ++i) {
@@ -247,7 +247,7 @@ std::vector<InMessage> PeerSession::awaitReplies(
       Peer& p = peerRef(pending[i].first);
       auto it = p.replies.find(pending[i].second);
       if (it == p.replies.end()) continue;
-      auto env = it->second.envelope();
+      auto env = it->second.message.envelope();
       if (env.getBody().which() == Which::ERROR) {
         const auto e = env.getBody().getError();
         const std::string kind = p.kinds[pending[i].second];
@@ -262,7 +262,7 @@ std::vector<InMessage> PeerSession::awaitReplies(
     if (remaining == 0) break;
     pump(std::chrono::milliseconds(100));
   }
-  std::vector<InMessage> out;
+  std::vector<Reply> out;
   out.reserve(got.size());
   for (auto& g : got) out.push_back(std::move(*g));
   return out;
@@ -285,8 +285,12 @@ void PeerSession::shutdownAll(const std::string& reason, double timeoutS) {
     bool all = true;
     for (const auto& [name, seq] : pending) all = all && peers_[name].replies.count(seq);
     if (all) break;
-    for (auto r = socket_.receive(std::chrono::milliseconds(50)); r; r = socket_.receive(std::chrono::milliseconds(0)))
-      take(std::move(*r));
+    try {
+      for (auto r = socket_.receive(std::chrono::milliseconds(50)); r; r = socket_.receive(std::chrono::milliseconds(0)))
+        take(std::move(*r));
+    } catch (const PeerFault& e) {
+      log::warn(e.what());
+    }
   }
   for (auto& [name, p] : peers_) {
     p.welcomed = false;

@@ -85,8 +85,8 @@ struct SolverHost::Impl {
     env.setSeq(++outSeq);
     auto h = env.getBody().initHello();
     const auto info = solver.info();
-    h.setProtocolMajor(proto::PROTOCOL_MAJOR);
-    h.setProtocolMinor(proto::PROTOCOL_MINOR);
+    h.setProtocolMajor(info.protocolMajor);
+    h.setProtocolMinor(info.protocolMinor);
     h.setSolverKind(info.kind);
     h.setVersion(info.version);
     h.setInstance(options.instance);

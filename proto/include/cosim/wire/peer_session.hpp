@@ -53,6 +53,12 @@ struct PeerTraffic {
   std::uint64_t bytesReceived = 0;
 };
 
+/// A reply and when it arrived (monotonic seconds), for timing splits.
+struct Reply {
+  InMessage message;
+  double receivedAt = 0.0;
+};
+
 class PeerSession {
  public:
   PeerSession(RouterSocket& socket, LinkOptions options);
@@ -72,9 +78,9 @@ class PeerSession {
   /// Sends a request (sets seq), returns its seq. timeoutS <= 0: the default.
   std::uint64_t request(const std::string& peer, OutMessage& message, double timeoutS = 0.0);
   /// Waits for the reply to seq; an error reply throws PeerFault.
-  InMessage awaitReply(const std::string& peer, std::uint64_t seq);
+  Reply awaitReply(const std::string& peer, std::uint64_t seq);
   /// Waits for several replies at once (peers compute in parallel meanwhile).
-  std::vector<InMessage> awaitReplies(const std::vector<std::pair<std::string, std::uint64_t>>& pending);
+  std::vector<Reply> awaitReplies(const std::vector<std::pair<std::string, std::uint64_t>>& pending);
 
   /// Asks every welcomed peer to shut down and waits up to timeoutS for their answers.
   void shutdownAll(const std::string& reason, double timeoutS);
@@ -95,7 +101,7 @@ class PeerSession {
     std::string lastHeardWhat = "nothing";
     std::map<std::uint64_t, double> deadlines;   // pending requests
     std::map<std::uint64_t, std::string> kinds;  // pending request kinds
-    std::map<std::uint64_t, InMessage> replies;
+    std::map<std::uint64_t, Reply> replies;
     PeerTraffic traffic;
   };
 

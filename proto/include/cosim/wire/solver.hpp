@@ -17,6 +17,10 @@ struct SolverInfo {
   std::string kind;     // "dem", "fem", "pd", "mock" ...
   std::string version;
   std::vector<std::string> capabilities;
+  // The protocol this solver was built against: the schema's constants,
+  // unless the binary deliberately speaks another version.
+  std::uint16_t protocolMajor = proto::PROTOCOL_MAJOR;
+  std::uint16_t protocolMinor = proto::PROTOCOL_MINOR;
 };
 
 /// What a solver throws for anything the coupler should hear about. The

@@ -1,0 +1,49 @@
+#pragma once
+// The report every run ends with, printed and written as JSON next to
+// coupler.h5: how it ended, and where the wall time went (each peer's
+// compute and communication, the coupler's own mapping and output work).
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace cosim::coupler {
+
+struct PeerTiming {
+  std::string name;
+  std::string kind;
+  std::string version;
+  double computeS = 0.0;        // inside the solver's advance, as it reports
+  double communicationS = 0.0;  // request round trips minus compute
+  std::uint64_t messagesSent = 0;
+  std::uint64_t messagesReceived = 0;
+  std::uint64_t bytesSent = 0;
+  std::uint64_t bytesReceived = 0;
+  double criticalDt = 0.0;
+};
+
+struct RunReport {
+  std::string scene;
+  std::string sceneFile;
+  std::string runDir;
+  std::string status = "not started";  // completed, refused, failed, interrupted
+  std::string message;
+  int exitCode = 0;
+  std::string schedule;
+  std::uint64_t exchanges = 0;
+  std::uint64_t plannedExchanges = 0;
+  double simulatedTime = 0.0;
+  double endTime = 0.0;
+  double wallS = 0.0;
+  double startupS = 0.0;   // launch, handshake and setup
+  double loopS = 0.0;      // the exchange loop
+  double mappingS = 0.0;   // couplings and request assembly in the coupler
+  double outputS = 0.0;    // HDF5 series and flushes
+  std::vector<PeerTiming> peers;
+  std::map<std::string, double> finalEnergies;  // "solver.name" -> J
+
+  void writeJson(const std::filesystem::path& path) const;
+  std::string text() const;
+};
+
+}  // namespace cosim::coupler

@@ -1,0 +1,61 @@
+#pragma once
+// The scene: one YAML file describing a run. Loading validates everything
+// that can be checked without starting a process.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/schedule/schedule.hpp"
+#include "cosim/wire/endpoint.hpp"
+#include "cosim/wire/peer_session.hpp"
+
+namespace cosim::coupler {
+
+struct SolverSpec {
+  std::string name;
+  std::string kind;
+  std::string binary;  // resolved path of the executable (spawn), as written otherwise
+  enum class Launch { spawn, attach } launch = Launch::spawn;
+  std::vector<std::string> args;
+  std::vector<std::string> extraCapabilities;  // `requires:` in the scene
+  int line = 0;
+};
+
+struct RecordSpec {
+  std::string solver;
+  std::string array;
+};
+
+struct OutputSpec {
+  std::string dir;            // run directory (relative to the working directory)
+  long flushInterval = 100;   // exchanges between flushes of coupler.h5
+  std::vector<RecordSpec> record;  // solver arrays stored in /series every exchange
+};
+
+struct Scene {
+  std::string file;
+  std::string text;
+  std::string name;
+  std::string description;
+  wire::TransportOptions transport;
+  wire::LinkOptions link;
+  double connectTimeoutS = 30.0;
+  std::vector<SolverSpec> solvers;
+  std::vector<std::unique_ptr<Coupling>> couplings;
+  std::unique_ptr<Schedule> schedule;
+  OutputSpec output;
+
+  const SolverSpec* solver(const std::string& name) const;
+  /// Capabilities the run needs from one solver (schedule, couplings, output, requires).
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const;
+};
+
+/// Loads and validates; throws config::ConfigError (all problems, each `file:line: message`).
+Scene loadScene(const std::string& path);
+
+/// Where a solver binary named without a directory is looked for: $COSIM_BIN_DIR,
+/// the coupler's own directory, then $PATH. Empty when not found.
+std::string findExecutable(const std::string& name, const std::string& sceneDir);
+
+}  // namespace cosim::coupler

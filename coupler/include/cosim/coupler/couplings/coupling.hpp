@@ -1,0 +1,77 @@
+#pragma once
+// A coupling takes the latest outputs of the solvers it joins and stages the
+// inputs of their next advance. Each kind is one class registered by the name
+// scenes use (`kind: direct-transfer` ...), so a new coupling is a new file.
+#include <map>
+#include <ostream>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cosim/util/registry.hpp"
+#include "data.capnp.h"
+
+namespace cosim::io {
+class SeriesWriter;
+}
+namespace cosim::config {
+class MapReader;
+}
+
+namespace cosim::coupler {
+
+struct SolverSpec;
+
+/// The inputs of one solver's next advance, as views into data that stays
+/// alive until the request is built (replies of the last exchange, or
+/// buffers the coupling owns).
+class InputAssembler {
+ public:
+  struct StagedArray {
+    std::string name;
+    std::uint32_t components = 1;
+    std::span<const double> values;
+  };
+  void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
+  const std::vector<StagedArray>& arrays() const { return arrays_; }
+  /// Copies everything staged into a request's CouplingData and forgets it.
+  void build(proto::CouplingData::Builder data);
+  std::size_t words() const;
+  void clear() { arrays_.clear(); }
+
+ private:
+  std::vector<StagedArray> arrays_;
+};
+
+struct ExchangeContext {
+  std::uint64_t exchange = 0;  // 0 = the outputs of setup
+  double time = 0.0;
+  const std::map<std::string, proto::CouplingData::Reader>& outputs;  // by solver name
+  std::map<std::string, InputAssembler>& inputs;                      // by solver name
+  io::SeriesWriter* series = nullptr;                                  // null in `coupler check`
+};
+
+class Coupling {
+ public:
+  explicit Coupling(std::string name) : name_(std::move(name)) {}
+  virtual ~Coupling() = default;
+  const std::string& name() const { return name_; }
+  virtual std::string kind() const = 0;
+  /// Solver instances this coupling joins.
+  virtual std::vector<std::string> participants() const = 0;
+  /// Capabilities it needs from one participant.
+  virtual std::vector<std::string> requiredCapabilities(const std::string& solver) const = 0;
+  /// One line for `coupler check`.
+  virtual void describe(std::ostream& out) const = 0;
+  /// Maps outputs to inputs; records what it wants under /series/<name>.
+  virtual void exchange(ExchangeContext& context) = 0;
+
+ private:
+  std::string name_;
+};
+
+/// Factories read their own keys from the coupling's map (name and kind are
+/// already read) and may check solver names against the scene's solvers.
+using CouplingRegistry = Registry<Coupling, const std::string&, config::MapReader&, const std::vector<SolverSpec>&>;
+
+}  // namespace cosim::coupler

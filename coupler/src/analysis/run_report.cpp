@@ -1,0 +1,59 @@
+#include "cosim/coupler/analysis/run_report.hpp"
+
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace cosim::coupler {
+
+void RunReport::writeJson(const std::filesystem::path& path) const {
+  nlohmann::json j;
+  j["scene"] = scene;
+  j["scene_file"] = sceneFile;
+  j["run_dir"] = runDir;
+  j["status"] = status;
+  j["message"] = message;
+  j["exit_code"] = exitCode;
+  j["schedule"] = schedule;
+  j["exchanges"] = exchanges;
+  j["planned_exchanges"] = plannedExchanges;
+  j["simulated_time_s"] = simulatedTime;
+  j["end_time_s"] = endTime;
+  j["wall_s"] = {{"total", wallS}, {"startup", startupS}, {"exchange_loop", loopS},
+                 {"coupler_mapping", mappingS}, {"coupler_output", outputS}};
+  j["peers"] = nlohmann::json::array();
+  for (const auto& p : peers)
+    j["peers"].push_back({{"name", p.name}, {"kind", p.kind}, {"version", p.version},
+                          {"compute_s", p.computeS}, {"communication_s", p.communicationS},
+                          {"messages_sent", p.messagesSent}, {"messages_received", p.messagesReceived},
+                          {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
+                          {"critical_dt_s", p.criticalDt}});
+  j["final_energies_J"] = finalEnergies;
+  std::ofstream out(path);
+  out << std::setw(2) << j << "\n";
+}
+
+std::string RunReport::text() const {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(3);
+  s << "run report: scene '" << scene << "' " << status;
+  if (!message.empty()) s << ": " << message;
+  s << "\n  schedule      " << schedule << "\n";
+  s << "  exchanges     " << exchanges << " of " << plannedExchanges << ", simulated t = " << std::setprecision(6)
+    << simulatedTime << " s of " << endTime << " s\n" << std::setprecision(3);
+  s << "  wall time     " << wallS << " s (startup " << startupS << " s, exchange loop " << loopS << " s)\n";
+  const double loop = loopS > 0 ? loopS : 1.0;
+  s << "  coupler       mapping " << mappingS << " s (" << 100.0 * mappingS / loop << " %), output " << outputS
+    << " s (" << 100.0 * outputS / loop << " %)\n";
+  for (const auto& p : peers)
+    s << "  " << std::left << std::setw(13) << p.name << std::right << " compute " << p.computeS << " s ("
+      << 100.0 * p.computeS / loop << " %), communication " << p.communicationS << " s ("
+      << 100.0 * p.communicationS / loop << " %), " << p.messagesSent << " requests, "
+      << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved\n";
+  for (const auto& [name, e] : finalEnergies) s << "  energy        " << name << " = " << std::setprecision(6) << e << " J\n";
+  s << "  output        " << runDir << "\n";
+  return s.str();
+}
+
+}  // namespace cosim::coupler

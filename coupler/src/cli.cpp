@@ -1,0 +1,82 @@
+#include "cosim/coupler/cli.hpp"
+
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/run/coupler_run.hpp"
+#include "cosim/wire/log.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+constexpr const char* kUsage =
+    "usage: coupler run SCENE.yaml [--out DIR] [--force] [--no-progress] [--log-level LEVEL]\n"
+    "       coupler check SCENE.yaml\n"
+    "\n"
+    "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
+    "         and DIR/run_report.json (DIR defaults to the scene's output.dir)\n"
+    "  check  validate the scene and print the coupling graph and the processes it would\n"
+    "         start; starts nothing\n"
+    "\n"
+    "  --force        run even if dt exceeds a solver's critical time step\n"
+    "  --no-progress  no progress line on stderr\n"
+    "  --log-level    debug, info, warn, error or quiet\n"
+    "\n"
+    "exit codes: 0 done, 1 coupler failure, 2 invalid scene or usage, 3 refused before time\n"
+    "zero (handshake, capabilities, setup, stability), 4 a peer failed during the run,\n"
+    "130 interrupted\n";
+
+int usageError(const std::string& message) {
+  std::cerr << "coupler: " << message << "\n" << kUsage;
+  return kExitBadConfig;
+}
+
+}  // namespace
+
+int couplerMain(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty()) return usageError("no command given");
+  if (args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    std::cout << kUsage;
+    return kExitOk;
+  }
+  const std::string command = args[0];
+  if (command != "run" && command != "check") return usageError("unknown command '" + command + "'");
+  std::string scenePath;
+  RunOptions options;
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    const auto& a = args[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw std::invalid_argument(a + " needs a value");
+      return args[++i];
+    };
+    try {
+      if (a == "--out") options.outDir = value();
+      else if (a == "--force") options.force = true;
+      else if (a == "--no-progress") options.progress = false;
+      else if (a == "--log-level") log::setLevel(log::parseLevel(value()));
+      else if (!a.empty() && a[0] == '-') return usageError("unknown option '" + a + "'");
+      else if (scenePath.empty()) scenePath = a;
+      else return usageError("more than one scene given ('" + scenePath + "', '" + a + "')");
+    } catch (const std::exception& e) {
+      return usageError(e.what());
+    }
+  }
+  if (scenePath.empty()) return usageError("no scene file given");
+  log::setPrefix("coupler");
+  try {
+    const Scene scene = loadScene(scenePath);
+    if (command == "check") {
+      describeScene(scene, std::cout);
+      return kExitOk;
+    }
+    return runScene(scene, options);
+  } catch (const config::ConfigError& e) {
+    std::cerr << e.what() << "\n";
+    return kExitBadConfig;
+  }
+}
+
+}  // namespace cosim::coupler

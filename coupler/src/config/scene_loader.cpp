@@ -1,0 +1,262 @@
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+
+namespace cosim::coupler {
+namespace fs = std::filesystem;
+using config::Diagnostics;
+using config::MapReader;
+using config::Range;
+
+namespace {
+
+// The binary each solver kind runs when a scene names no `binary`.
+const std::map<std::string, std::string>& defaultBinaries() {
+  static const std::map<std::string, std::string> m{
+      {"dem", "dem_solver"}, {"fem", "fem_solver"}, {"pd", "pd_solver"}, {"mock", "mock_solver"}};
+  return m;
+}
+
+bool isExecutable(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec) && ::access(p.c_str(), X_OK) == 0;
+}
+
+fs::path ownDirectory() {
+  std::error_code ec;
+  auto exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path() : exe.parent_path();
+}
+
+void readTransport(MapReader& m, Scene& scene) {
+  auto& t = scene.transport;
+  t.kind = m.choice("kind", {"ipc", "tcp"}, std::string("ipc")) == "tcp" ? wire::TransportOptions::Kind::tcp
+                                                                        : wire::TransportOptions::Kind::ipc;
+  t.interface = m.string("interface", "127.0.0.1");
+  t.port = static_cast<int>(m.integer("port", 0, 0, 65535));
+  auto& l = scene.link;
+  l.heartbeatIntervalS = m.number("heartbeat_interval", 0.5, Range::positive());
+  l.heartbeatTimeoutS = m.number("heartbeat_timeout", 10.0, Range::positive());
+  l.requestTimeoutS = m.number("request_timeout", 3600.0, Range::positive());
+  scene.connectTimeoutS = m.number("connect_timeout", 30.0, Range::positive());
+  if (l.heartbeatTimeoutS <= 2.0 * l.heartbeatIntervalS)
+    m.error("heartbeat_timeout", "must be more than twice heartbeat_interval (" +
+                                     std::to_string(l.heartbeatIntervalS) + " s), or every late beat is a fault");
+  if (t.kind == wire::TransportOptions::Kind::ipc && m.has("port"))
+    m.error("port", "only a tcp transport has a port");
+}
+
+void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::set<std::string>& names) {
+  SolverSpec s;
+  s.line = m.mark().line + 1;
+  s.name = m.requireString("name");
+  static const std::regex namePattern("[A-Za-z][A-Za-z0-9_.-]*");
+  if (!s.name.empty() && !std::regex_match(s.name, namePattern))
+    m.error("name", "'" + s.name + "' is not a valid instance name (letters, digits, '_', '.', '-', starting with a letter)");
+  if (!s.name.empty() && !names.insert(s.name).second) m.error("name", "a solver named '" + s.name + "' is already declared");
+  s.kind = m.requireString("kind");
+  const auto binary = m.optionalString("binary");
+  const auto launch = m.choice("launch", {"spawn", "attach"}, std::string("spawn"));
+  s.launch = launch == "attach" ? SolverSpec::Launch::attach : SolverSpec::Launch::spawn;
+  s.args = m.stringList("args");
+  s.extraCapabilities = m.stringList("requires");
+  m.node("params");  // the solver's own section: the solver validates it at setup
+  if (m.has("params") && !m.node("params").IsMap()) m.error("params", "expected a map of the solver's parameters");
+  if (!s.kind.empty() && !binary && !defaultBinaries().count(s.kind)) {
+    std::string kinds;
+    for (const auto& [k, b] : defaultBinaries()) kinds += (kinds.empty() ? "" : ", ") + k;
+    m.error("kind", "'" + s.kind + "' has no default binary (known kinds: " + kinds + "); name one with `binary:`");
+  }
+  const std::string wanted = binary ? *binary : (defaultBinaries().count(s.kind) ? defaultBinaries().at(s.kind) : "");
+  s.binary = wanted;
+  if (s.launch == SolverSpec::Launch::spawn && !wanted.empty()) {
+    s.binary = findExecutable(wanted, sceneDir);
+    if (s.binary.empty())
+      m.error(binary ? "binary" : "kind", "solver executable '" + wanted +
+                                              "' not found (looked next to the scene for paths, else in $COSIM_BIN_DIR, "
+                                              "the coupler's directory and $PATH)");
+  }
+  m.finish();
+  scene.solvers.push_back(std::move(s));
+}
+
+void readSolvers(MapReader& root, const std::string& sceneDir, Scene& scene) {
+  auto list = root.node("solvers");
+  if (!list.IsDefined() || list.IsNull()) {
+    root.diagnostics().error(root.mark(), "scene: missing required key 'solvers' (the solver instances to run)");
+    return;
+  }
+  if (!list.IsSequence() || list.size() == 0) {
+    root.error("solvers", "expected a non-empty list of solver instances");
+    return;
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    MapReader m(list[i], "solvers[" + std::to_string(i) + "]", root.diagnostics());
+    if (m.valid()) readSolver(m, sceneDir, scene, names);
+  }
+}
+
+void readCouplings(MapReader& root, Scene& scene) {
+  auto list = root.node("couplings");
+  if (!list.IsDefined() || list.IsNull()) return;
+  if (!list.IsSequence()) {
+    root.error("couplings", "expected a list of couplings");
+    return;
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    MapReader m(list[i], "couplings[" + std::to_string(i) + "]", root.diagnostics());
+    if (!m.valid()) continue;
+    const auto name = m.string("name", "coupling" + std::to_string(i));
+    if (!names.insert(name).second) m.error("name", "a coupling named '" + name + "' is already declared");
+    const auto kind = m.requireString("kind");
+    if (kind.empty()) continue;
+    if (!CouplingRegistry::instance().has(kind)) {
+      m.error("kind", "unknown coupling kind '" + kind + "' (known: " + CouplingRegistry::instance().namesJoined() + ")");
+      continue;
+    }
+    auto coupling = CouplingRegistry::instance().make(kind, name, m, scene.solvers);
+    m.finish();
+    if (coupling) scene.couplings.push_back(std::move(coupling));
+  }
+}
+
+void readSchedule(MapReader& root, Scene& scene) {
+  if (!root.has("schedule")) {
+    root.diagnostics().error(root.mark(), "scene: missing required key 'schedule'");
+    root.node("schedule");
+    return;
+  }
+  MapReader m(root.node("schedule"), "schedule", root.diagnostics());
+  if (!m.valid()) return;
+  const auto kind = m.requireString("kind");
+  if (kind.empty()) return;
+  if (!ScheduleRegistry::instance().has(kind)) {
+    m.error("kind", "unknown schedule '" + kind + "' (known: " + ScheduleRegistry::instance().namesJoined() + ")");
+    return;
+  }
+  scene.schedule = ScheduleRegistry::instance().make(kind, m);
+  m.finish();
+}
+
+void readOutput(MapReader& root, Scene& scene) {
+  scene.output.dir = "runs/" + scene.name;
+  if (!root.has("output")) {
+    root.node("output");
+    return;
+  }
+  MapReader m(root.node("output"), "output", root.diagnostics());
+  if (!m.valid()) return;
+  scene.output.dir = m.string("dir", scene.output.dir);
+  scene.output.flushInterval = m.integer("flush_interval", 100, 1, 1000000000);
+  for (const auto& item : m.stringList("record")) {
+    const auto dot = item.find('.');
+    if (dot == std::string::npos || dot == 0 || dot + 1 == item.size()) {
+      m.error("record", "'" + item + "' is not of the form solver.array");
+      continue;
+    }
+    RecordSpec r{item.substr(0, dot), item.substr(dot + 1)};
+    if (!scene.solver(r.solver)) m.error("record", "'" + item + "' names no declared solver '" + r.solver + "'");
+    scene.output.record.push_back(r);
+  }
+  m.finish();
+}
+
+void crossCheck(MapReader& root, Scene& scene) {
+  for (const auto& c : scene.couplings)
+    for (const auto& p : c->participants())
+      if (!scene.solver(p) && !p.empty())
+        root.diagnostics().error(root.markOf("couplings"),
+                                 "couplings: '" + c->name() + "' names solver '" + p + "', which is not declared under solvers");
+}
+
+}  // namespace
+
+std::string findExecutable(const std::string& name, const std::string& sceneDir) {
+  if (name.find('/') != std::string::npos) {
+    fs::path p(name);
+    if (p.is_relative()) p = fs::path(sceneDir) / p;
+    return isExecutable(p) ? fs::absolute(p).lexically_normal().string() : std::string();
+  }
+  std::vector<fs::path> dirs;
+  if (const char* env = std::getenv("COSIM_BIN_DIR")) dirs.emplace_back(env);
+  dirs.push_back(ownDirectory());
+  if (const char* path = std::getenv("PATH")) {
+    std::stringstream s(path);
+    for (std::string d; std::getline(s, d, ':');)
+      if (!d.empty()) dirs.emplace_back(d);
+  }
+  for (const auto& d : dirs)
+    if (!d.empty() && isExecutable(d / name)) return (d / name).string();
+  return {};
+}
+
+const SolverSpec* Scene::solver(const std::string& n) const {
+  for (const auto& s : solvers)
+    if (s.name == n) return &s;
+  return nullptr;
+}
+
+std::vector<std::string> Scene::requiredCapabilities(const std::string& solverName) const {
+  std::set<std::string> caps{"setup", "advance"};
+  for (const auto& c : couplings) {
+    const auto parts = c->participants();
+    if (std::find(parts.begin(), parts.end(), solverName) != parts.end())
+      for (const auto& cap : c->requiredCapabilities(solverName)) caps.insert(cap);
+  }
+  if (const auto* s = solver(solverName)) caps.insert(s->extraCapabilities.begin(), s->extraCapabilities.end());
+  return {caps.begin(), caps.end()};
+}
+
+Scene loadScene(const std::string& path) {
+  Scene scene;
+  scene.file = path;
+  {
+    std::ifstream in(path);
+    if (!in) throw config::ConfigError({path + ": cannot open the scene file"});
+    std::stringstream text;
+    text << in.rdbuf();
+    scene.text = text.str();
+  }
+  const YAML::Node rootNode = config::loadYamlString(scene.text, path);
+  Diagnostics diag(path);
+  if (!rootNode.IsMap()) {
+    diag.error(rootNode.Mark(), "a scene is a map with keys scene, schedule, solvers, couplings, transport, output");
+    diag.throwIfAny();
+  }
+  MapReader root(rootNode, "", diag);
+  scene.name = root.requireString("scene");
+  static const std::regex namePattern("[A-Za-z0-9][A-Za-z0-9_.-]*");
+  if (!scene.name.empty() && !std::regex_match(scene.name, namePattern))
+    root.error("scene", "'" + scene.name + "' is not a valid scene name (letters, digits, '_', '.', '-')");
+  scene.description = root.string("description", "");
+  const auto sceneDir = fs::absolute(path).parent_path().string();
+  if (root.has("transport")) {
+    MapReader t(root.node("transport"), "transport", diag);
+    if (t.valid()) {
+      readTransport(t, scene);
+      t.finish();
+    }
+  } else {
+    root.node("transport");
+  }
+  readSolvers(root, sceneDir, scene);
+  readSchedule(root, scene);
+  readCouplings(root, scene);
+  readOutput(root, scene);
+  crossCheck(root, scene);
+  root.finish();
+  diag.throwIfAny();
+  return scene;
+}
+
+}  // namespace cosim::coupler

@@ -1,0 +1,377 @@
+#include "cosim/coupler/run/coupler_run.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <sstream>
+
+#include "cosim/coupler/analysis/progress.hpp"
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/run_report.hpp"
+#include "cosim/coupler/launch/process_group.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+#include "cosim/wire/clock.hpp"
+#include "cosim/wire/log.hpp"
+
+namespace cosim::coupler {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A refusal before time zero (handshake, capability, setup or stability).
+struct Refused : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+struct Interrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& i : items) out += (out.empty() ? "" : ", ") + i;
+  return out;
+}
+
+std::vector<std::string> launchArgs(const SolverSpec& s, const std::string& endpoint) {
+  std::vector<std::string> args{"--endpoint", endpoint, "--name", s.name};
+  args.insert(args.end(), s.args.begin(), s.args.end());
+  return args;
+}
+
+class CouplerRun final : public ExchangeDriver {
+ public:
+  CouplerRun(const Scene& scene, const RunOptions& options)
+      : scene_(scene), options_(options), runDir_(options.outDir.empty() ? scene.output.dir : options.outDir),
+        progress_(options.progress) {
+    for (const auto& s : scene.solvers) names_.push_back(s.name);
+    report_.scene = scene.name;
+    report_.sceneFile = scene.file;
+    report_.runDir = runDir_.string();
+  }
+
+  int run() {
+    const double start = monotonicSeconds();
+    try {
+      prepareOutput();
+      startPeers();
+      setUpPeers();
+      report_.startupS = monotonicSeconds() - start;
+      const double loopStart = monotonicSeconds();
+      report_.status = "running";
+      scene_.schedule->run(*this);
+      report_.loopS = monotonicSeconds() - loopStart;
+      finish("completed", "", kExitOk);
+    } catch (const config::ConfigError& e) {
+      finish("refused", e.what(), kExitBadConfig);
+    } catch (const Refused& e) {
+      finish("refused", e.what(), kExitRefused);
+    } catch (const Interrupted& e) {
+      finish("interrupted", e.what(), kExitInterrupted);
+    } catch (const wire::PeerFault& e) {
+      finish(report_.status == "running" ? "failed" : "refused", e.what(),
+             report_.status == "running" ? kExitPeerFault : kExitRefused);
+    } catch (const std::exception& e) {
+      finish("failed", e.what(), report_.status == "running" ? kExitPeerFault : kExitFailure);
+    }
+    if (report_.loopS == 0.0 && report_.startupS > 0.0) report_.loopS = monotonicSeconds() - start - report_.startupS;
+    report_.wallS = monotonicSeconds() - start;
+    return conclude();
+  }
+
+  // ExchangeDriver
+  const std::vector<std::string>& solverNames() const override { return names_; }
+  double time() const override { return time_; }
+
+  void exchange(const std::map<std::string, AdvancePlan>& plans, double newTime) override {
+    checkInterrupt();
+    ++exchange_;
+    session_->setContext("exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) + " s)");
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    std::vector<double> sentAt;
+    {
+      ScopedTimer t(report_.mappingS);
+      for (const auto& [name, plan] : plans) {
+        auto& inputs = inputs_[name];
+        wire::OutMessage m(inputs.words());
+        auto adv = m.envelope().getBody().initAdvance();
+        adv.setSteps(plan.steps);
+        adv.setDt(plan.dt);
+        adv.setTime(time_);
+        adv.setExchange(exchange_);
+        inputs.build(adv.initInputs());
+        sentAt.push_back(monotonicSeconds());
+        pending.emplace_back(name, session_->request(name, m));
+      }
+    }
+    auto replies = session_->awaitReplies(pending);
+    time_ = newTime;
+    for (std::size_t i = 0; i < replies.size(); ++i) takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i]);
+    runCouplings();
+    record();
+    progress_.update(time_, scene_.schedule->endTime(), exchange_, scene_.schedule->exchanges());
+  }
+
+ private:
+  void checkInterrupt() const {
+    if (const int sig = stopSignal())
+      throw Interrupted("stopped by signal " + std::to_string(sig) + " at exchange " + std::to_string(exchange_));
+  }
+
+  void prepareOutput() {
+    fs::create_directories(runDir_);
+    h5_.emplace(io::H5File::create(runDir_ / "coupler.h5"));
+    h5_->setAttribute("/", "scene", scene_.name);
+    h5_->setAttribute("/", "scene_file", fs::absolute(scene_.file).string());
+    h5_->setAttribute("/", "units", "SI");
+    h5_->setAttribute("/", "protocol", std::to_string(proto::PROTOCOL_MAJOR) + "." + std::to_string(proto::PROTOCOL_MINOR));
+    series_.emplace(*h5_, "/series");
+    series_->setUnits("time", "s");
+    series_->flush();
+  }
+
+  void startPeers() {
+    endpoint_ = wire::bindEndpoint(scene_.transport, runDir_);
+    socket_.emplace(endpoint_);
+    endpoint_ = socket_->endpoint();
+    const auto connectTo = wire::connectableEndpoint(endpoint_);
+    session_.emplace(*socket_, scene_.link);
+    session_->setWatchdog([this] { watchdog(); });
+    for (const auto& s : scene_.solvers) {
+      if (s.launch == SolverSpec::Launch::spawn) {
+        processes_.spawn(s.name, s.binary, launchArgs(s, connectTo));
+      } else {
+        log::info("waiting for solver '" + s.name + "' to connect to " + connectTo + " (start it with: " +
+                  (s.binary.empty() ? s.kind + "_solver" : s.binary) + " --endpoint " + connectTo + " --name " + s.name + ")");
+      }
+    }
+    session_->awaitHellos(names_, scene_.connectTimeoutS);
+    checkHellos();
+    for (const auto& n : names_) session_->welcome(n);
+  }
+
+  void watchdog() {
+    if (auto exit = processes_.reapOne())
+      throw wire::PeerFault(exit->name, "peer '" + exit->name + "' (pid " + std::to_string(exit->pid) + ") " + exit->how +
+                                            " at " + context() + "; last heard: " + session_->lastHeard(exit->name));
+    checkInterrupt();
+  }
+
+  std::string context() const {
+    return exchange_ == 0 ? std::string("before time zero")
+                          : "exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) + " s)";
+  }
+
+  void checkHellos() {
+    std::vector<std::string> problems;
+    for (const auto& s : scene_.solvers) {
+      const auto& info = session_->info(s.name);
+      const std::string who = "solver '" + s.name + "' (" + (s.binary.empty() ? "attached" : s.binary) + ", " +
+                              info.kind + " " + info.version + ")";
+      std::string problem;
+      if (info.protocolMajor != proto::PROTOCOL_MAJOR)
+        problem = who + " speaks protocol " + std::to_string(info.protocolMajor) + "." +
+                  std::to_string(info.protocolMinor) + ", the coupler speaks " + std::to_string(proto::PROTOCOL_MAJOR) +
+                  "." + std::to_string(proto::PROTOCOL_MINOR) + " (major versions must match)";
+      else if (info.kind != s.kind)
+        problem = who + " reports kind '" + info.kind + "' but the scene declares kind '" + s.kind + "' (" +
+                  scene_.file + ":" + std::to_string(s.line) + ")";
+      else
+        for (const auto& cap : scene_.requiredCapabilities(s.name))
+          if (std::find(info.capabilities.begin(), info.capabilities.end(), cap) == info.capabilities.end()) {
+            problem = who + " lacks capability '" + cap + "' that this scene needs (it offers: " +
+                      joined(info.capabilities) + ")";
+            break;
+          }
+      if (!problem.empty()) {
+        session_->refuse(s.name, problem);
+        problems.push_back(problem);
+      }
+    }
+    if (!problems.empty()) throw Refused(joined(problems));
+  }
+
+  void setUpPeers() {
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto& s : scene_.solvers) {
+      wire::OutMessage m(scene_.text.size() / 8 + 256);
+      auto setup = m.envelope().getBody().initSetup();
+      setup.setSceneFile(scene_.file);
+      setup.setSceneYaml(scene_.text);
+      setup.setInstance(s.name);
+      setup.setRunDir(fs::absolute(runDir_).string());
+      pending.emplace_back(s.name, session_->request(s.name, m));
+    }
+    std::vector<wire::Reply> replies;
+    try {
+      replies = session_->awaitReplies(pending);
+    } catch (const wire::PeerFault& e) {
+      throw Refused(std::string("setup failed: ") + e.what());
+    }
+    std::map<std::string, double> critical;
+    for (std::size_t i = 0; i < replies.size(); ++i) {
+      const auto& name = pending[i].first;
+      auto done = replies[i].message.envelope().getBody().getSetupDone();
+      critical[name] = done.getCriticalDt();
+      latest_.insert_or_assign(name, std::move(replies[i].message));
+      outputs_[name] = latest_.at(name).envelope().getBody().getSetupDone().getOutputs();
+    }
+    try {
+      scene_.schedule->resolveTimeStep(critical, options_.force);
+    } catch (const std::runtime_error& e) {
+      throw Refused(e.what());
+    }
+    report_.schedule = scene_.schedule->describe();
+    report_.plannedExchanges = scene_.schedule->exchanges();
+    report_.endTime = scene_.schedule->endTime();
+    for (const auto& s : scene_.solvers) {
+      PeerTiming p;
+      p.name = s.name;
+      p.kind = session_->info(s.name).kind;
+      p.version = session_->info(s.name).version;
+      p.criticalDt = critical[s.name];
+      timings_[s.name] = p;
+    }
+    runCouplings();
+    record();
+  }
+
+  void takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt) {
+    auto adv = reply.message.envelope().getBody().getAdvanced();
+    auto& t = timings_[name];
+    t.computeS += adv.getComputeSeconds();
+    t.communicationS += std::max(0.0, reply.receivedAt - sentAt - adv.getComputeSeconds());
+    for (auto e : adv.getEnergies())
+      if (!std::isfinite(e.getValue()))
+        throw wire::PeerFault(name, "solver '" + name + "' reported " + e.getName().cStr() + " = " +
+                                        std::to_string(e.getValue()) + " at exchange " + std::to_string(exchange_) +
+                                        " (t = " + std::to_string(time_) + " s): the run is unstable");
+    latest_.insert_or_assign(name, std::move(reply.message));
+    outputs_[name] = latest_.at(name).envelope().getBody().getAdvanced().getOutputs();
+  }
+
+  void runCouplings() {
+    ScopedTimer t(report_.mappingS);
+    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, &*series_};
+    for (const auto& c : scene_.couplings) c->exchange(ctx);
+  }
+
+  void record() {
+    ScopedTimer t(report_.outputS);
+    series_->append("time", time_);
+    series_->append("exchange", static_cast<double>(exchange_));
+    for (const auto& [name, msg] : latest_) {
+      auto body = msg.envelope().getBody();
+      auto energies = body.isAdvanced() ? body.getAdvanced().getEnergies() : body.getSetupDone().getEnergies();
+      for (auto e : energies) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
+      series_->append(name + "/compute_s", timings_[name].computeS);
+      series_->append(name + "/communication_s", timings_[name].communicationS);
+    }
+    for (const auto& r : scene_.output.record) {
+      proto::NamedArray::Reader array;
+      if (!wire::findArray(outputs_.at(r.solver).getArrays(), r.array, array))
+        throw std::runtime_error("output.record: solver '" + r.solver + "' sent no array '" + r.array + "'");
+      series_->append(r.solver + "/" + r.array, wire::view(array.getValues()));
+    }
+    if (exchange_ % static_cast<std::uint64_t>(scene_.output.flushInterval) == 0) series_->flush();
+  }
+
+  void finish(const std::string& status, const std::string& message, int code) {
+    report_.status = status;
+    report_.message = message;
+    report_.exitCode = code;
+    report_.exchanges = exchange_;
+    report_.simulatedTime = time_;
+  }
+
+  int conclude() {
+    progress_.finish();
+    if (session_) {
+      session_->setWatchdog(nullptr);
+      session_->shutdownAll(report_.status, 3.0);
+      for (auto& [name, t] : timings_) {
+        const auto& traffic = session_->traffic(name);
+        t.messagesSent = traffic.messagesSent;
+        t.messagesReceived = traffic.messagesReceived;
+        t.bytesSent = traffic.bytesSent;
+        t.bytesReceived = traffic.bytesReceived;
+        report_.peers.push_back(t);
+      }
+    }
+    processes_.terminateAll(1.0, 2.0);
+    for (const auto& [name, msg] : latest_) {
+      auto body = msg.envelope().getBody();
+      auto energies = body.isAdvanced() ? body.getAdvanced().getEnergies() : body.getSetupDone().getEnergies();
+      for (auto e : energies) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
+    }
+    try {
+      if (series_) {
+        series_->flush();
+        h5_->setAttribute("/", "status", report_.status);
+      }
+      if (fs::exists(runDir_)) report_.writeJson(runDir_ / "run_report.json");
+    } catch (const std::exception& e) {
+      log::error(std::string("could not finish the output: ") + e.what());
+    }
+    if (report_.exitCode != kExitOk) log::error(report_.message);
+    std::cout << report_.text() << std::flush;
+    if (socket_) wire::removeIpcEndpoint(endpoint_);
+    return report_.exitCode;
+  }
+
+  const Scene& scene_;
+  RunOptions options_;
+  fs::path runDir_;
+  ProgressLine progress_;
+  std::vector<std::string> names_;
+  RunReport report_;
+  std::optional<io::H5File> h5_;
+  std::optional<io::SeriesWriter> series_;
+  std::string endpoint_;
+  std::optional<wire::RouterSocket> socket_;
+  std::optional<wire::PeerSession> session_;
+  ProcessGroup processes_;
+  std::map<std::string, wire::InMessage> latest_;
+  std::map<std::string, proto::CouplingData::Reader> outputs_;
+  std::map<std::string, InputAssembler> inputs_;
+  std::map<std::string, PeerTiming> timings_;
+  std::uint64_t exchange_ = 0;
+  double time_ = 0.0;
+};
+
+}  // namespace
+
+int runScene(const Scene& scene, const RunOptions& options) {
+  installStopSignalHandlers();
+  CouplerRun run(scene, options);
+  return run.run();
+}
+
+void describeScene(const Scene& scene, std::ostream& out) {
+  out << "scene '" << scene.name << "' (" << scene.file << ")\n";
+  if (!scene.description.empty()) out << "  " << scene.description << "\n";
+  out << "schedule: " << scene.schedule->describe() << "\n";
+  out << "solvers:\n";
+  for (const auto& s : scene.solvers) {
+    out << "  " << s.name << " (" << s.kind << "): ";
+    if (s.launch == SolverSpec::Launch::spawn) {
+      out << "start " << s.binary << " --endpoint <endpoint> --name " << s.name;
+      for (const auto& a : s.args) out << " " << a;
+    } else {
+      out << "attach: waits for it to connect";
+    }
+    out << "\n    needs capabilities: " << joined(scene.requiredCapabilities(s.name)) << "\n";
+  }
+  out << "couplings:" << (scene.couplings.empty() ? " none" : "") << "\n";
+  for (const auto& c : scene.couplings) {
+    out << "  " << c->name() << " [" << c->kind() << "] ";
+    c->describe(out);
+    out << "\n";
+  }
+  out << "transport: " << (scene.transport.kind == wire::TransportOptions::Kind::tcp ? "tcp on " + scene.transport.interface : "ipc")
+      << ", heartbeat " << scene.link.heartbeatIntervalS << " s, timeout " << scene.link.heartbeatTimeoutS << " s\n";
+  out << "output: " << scene.output.dir << "/coupler.h5\n";
+}
+
+}  // namespace cosim::coupler

@@ -1,0 +1,99 @@
+// Lockstep: every solver advances the same dt (and the same number of steps)
+// between exchanges.
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/schedule/schedule.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+class Lockstep final : public Schedule {
+ public:
+  explicit Lockstep(config::MapReader& m) {
+    const auto dtText = m.optionalString("dt");
+    if (!dtText) {
+      m.error("dt", "missing: give a step in seconds or 'auto'");
+    } else if (*dtText == "auto") {
+      autoDt_ = true;
+    } else {
+      dt_ = m.optionalNumber("dt", config::Range::positive()).value_or(0.0);
+    }
+    safety_ = m.number("safety", 0.5, {0.0, 1.0, true});
+    stepsPerExchange_ = static_cast<std::uint32_t>(m.integer("steps_per_exchange", 1, 1, 100000000));
+    endTime_ = m.optionalNumber("end_time", config::Range::positive());
+    fixedExchanges_ = m.optionalInteger("exchanges", 1, 1000000000000L);
+    if (endTime_ && fixedExchanges_) m.error("exchanges", "give end_time or exchanges, not both");
+    if (!endTime_ && !fixedExchanges_ && !m.has("end_time") && !m.has("exchanges"))
+      m.diagnostics().error(m.mark(), "schedule: give the run's length as end_time (s) or exchanges");
+  }
+
+  std::string kind() const override { return "lockstep"; }
+
+  std::string describe() const override {
+    std::ostringstream s;
+    s << "lockstep: dt = " << (autoDt_ && dt_ == 0.0 ? std::string("auto") : toString(dt_)) << " s, "
+      << stepsPerExchange_ << " step(s) per exchange, ";
+    if (fixedExchanges_) s << *fixedExchanges_ << " exchanges";
+    else s << "until t = " << (endTime_ ? *endTime_ : 0.0) << " s";
+    return s.str();
+  }
+
+  void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
+    double limit = std::numeric_limits<double>::infinity();
+    std::string limiting;
+    for (const auto& [solver, dt] : criticalDt)
+      if (dt > 0.0 && dt < limit) {
+        limit = dt;
+        limiting = solver;
+      }
+    if (autoDt_) {
+      if (std::isinf(limit))
+        throw std::runtime_error("schedule.dt: 'auto' needs a solver that reports a critical time step; none does");
+      dt_ = safety_ * limit;
+    } else if (dt_ > limit && !force) {
+      throw std::runtime_error("schedule.dt = " + toString(dt_) + " s exceeds the critical time step " +
+                               toString(limit) + " s of solver '" + limiting +
+                               "'; lower dt, use dt: auto, or run with --force");
+    }
+  }
+
+  std::uint64_t exchanges() const override {
+    if (fixedExchanges_) return static_cast<std::uint64_t>(*fixedExchanges_);
+    const double perExchange = dt_ * stepsPerExchange_;
+    if (!(perExchange > 0.0) || !endTime_) return 0;
+    // The last exchange may overshoot end_time by less than one exchange interval.
+    return static_cast<std::uint64_t>(std::ceil(*endTime_ / perExchange - 1e-9));
+  }
+
+  double endTime() const override { return static_cast<double>(exchanges()) * dt_ * stepsPerExchange_; }
+
+  void run(ExchangeDriver& driver) override {
+    std::map<std::string, AdvancePlan> plans;
+    for (const auto& name : driver.solverNames()) plans[name] = AdvancePlan{stepsPerExchange_, dt_};
+    const std::uint64_t n = exchanges();
+    for (std::uint64_t k = 1; k <= n; ++k)
+      driver.exchange(plans, static_cast<double>(k) * dt_ * stepsPerExchange_);
+  }
+
+ private:
+  static std::string toString(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  }
+  bool autoDt_ = false;
+  double dt_ = 0.0;
+  double safety_ = 0.5;
+  std::uint32_t stepsPerExchange_ = 1;
+  std::optional<double> endTime_;
+  std::optional<long> fixedExchanges_;
+};
+
+COSIM_REGISTER(ScheduleRegistry, "lockstep", [](config::MapReader& m) { return std::make_unique<Lockstep>(m); });
+
+}  // namespace
+}  // namespace cosim::coupler

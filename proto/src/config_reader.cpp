@@ -1,0 +1,259 @@
+#include "cosim/config/config_reader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace cosim::config {
+namespace {
+
+std::string join(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const auto& l : lines) out += (out.empty() ? "" : "\n") + l;
+  return out;
+}
+
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string formatNumber(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+ConfigError::ConfigError(const std::vector<std::string>& lines) : std::runtime_error(join(lines)), lines_(lines) {}
+
+std::string Diagnostics::where(const YAML::Mark& mark) const {
+  return file_ + ":" + std::to_string(mark.line >= 0 ? mark.line + 1 : 1);
+}
+
+void Diagnostics::error(const YAML::Mark& mark, const std::string& message) {
+  lines_.push_back(where(mark) + ": " + message);
+}
+
+void Diagnostics::throwIfAny() const {
+  if (!lines_.empty()) throw ConfigError(lines_);
+}
+
+YAML::Node loadYamlString(const std::string& text, const std::string& name) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError({name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg});
+  }
+}
+
+YAML::Node loadYamlFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError({path + ": cannot open the file"});
+  std::stringstream text;
+  text << in.rdbuf();
+  return loadYamlString(text.str(), path);
+}
+
+std::optional<double> parseNumber(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  std::string t = text;
+  if (t == ".inf" || t == "+.inf") return std::numeric_limits<double>::infinity();
+  if (t == "-.inf") return -std::numeric_limits<double>::infinity();
+  if (t == ".nan" || t == ".NaN") return std::numeric_limits<double>::quiet_NaN();
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(t, &used);
+    if (used != t.size()) return std::nullopt;
+    return v;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+std::string Range::describe() const {
+  std::string lo = std::isinf(min) ? "" : (minExclusive ? "> " : ">= ") + formatNumber(min);
+  std::string hi = std::isinf(max) ? "" : "<= " + formatNumber(max);
+  if (!lo.empty() && !hi.empty()) return lo + " and " + hi;
+  return lo.empty() ? hi : lo;
+}
+
+MapReader::MapReader(const YAML::Node& node, std::string path, Diagnostics& diagnostics)
+    : node_(node), path_(std::move(path)), diag_(diagnostics), mark_(node.Mark()) {
+  if (!node.IsMap()) {
+    valid_ = false;
+    diag_.error(mark_, (path_.empty() ? std::string("the file") : path_) + ": expected a map of keys");
+    return;
+  }
+  std::set<std::string> seen;
+  for (const auto& kv : node) {
+    const auto key = kv.first.as<std::string>("");
+    if (!seen.insert(key).second) diag_.error(kv.first.Mark(), keyPath(key) + ": duplicate key");
+  }
+}
+
+std::string MapReader::keyPath(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+bool MapReader::has(const std::string& key) const { return valid_ && node_[key].IsDefined() && !node_[key].IsNull(); }
+
+YAML::Node MapReader::node(const std::string& key) {
+  if (!valid_) return YAML::Node(YAML::NodeType::Undefined);
+  used_.insert(key);
+  return node_[key];
+}
+
+YAML::Mark MapReader::markOf(const std::string& key) const {
+  if (!valid_) return mark_;
+  for (const auto& kv : node_)
+    if (kv.first.as<std::string>("") == key) return kv.first.Mark();
+  return mark_;
+}
+
+void MapReader::error(const std::string& key, const std::string& message) {
+  diag_.error(markOf(key), keyPath(key) + ": " + message);
+}
+
+std::optional<std::string> MapReader::optionalString(const std::string& key) {
+  auto n = node(key);
+  if (!n.IsDefined() || n.IsNull()) return std::nullopt;
+  if (!n.IsScalar()) {
+    error(key, "expected a text value, got a " + std::string(n.IsMap() ? "map" : "list"));
+    return std::nullopt;
+  }
+  return n.Scalar();
+}
+
+std::string MapReader::requireString(const std::string& key) {
+  if (!has(key)) {
+    diag_.error(mark_, (path_.empty() ? std::string("scene") : path_) + ": missing required key '" + key + "'");
+    node(key);
+    return {};
+  }
+  return optionalString(key).value_or("");
+}
+
+std::string MapReader::string(const std::string& key, const std::string& fallback) {
+  return optionalString(key).value_or(fallback);
+}
+
+std::string MapReader::choice(const std::string& key, const std::vector<std::string>& allowed,
+                              const std::optional<std::string>& fallback) {
+  std::string value = fallback ? string(key, *fallback) : requireString(key);
+  if (value.empty() && !fallback) return value;
+  if (std::find(allowed.begin(), allowed.end(), value) == allowed.end()) {
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    error(key, "'" + value + "' is not one of: " + list);
+  }
+  return value;
+}
+
+std::optional<double> MapReader::optionalNumber(const std::string& key, Range range) {
+  auto text = optionalString(key);
+  if (!text) return std::nullopt;
+  auto v = parseNumber(*text);
+  if (!v) {
+    error(key, "expected a number, got '" + *text + "'");
+    return std::nullopt;
+  }
+  if (!std::isfinite(*v)) {
+    error(key, "must be finite, got '" + *text + "'");
+    return std::nullopt;
+  }
+  if (!range.contains(*v)) {
+    error(key, "must be " + range.describe() + " (got " + *text + ")");
+    return std::nullopt;
+  }
+  return v;
+}
+
+double MapReader::requireNumber(const std::string& key, Range range) {
+  if (!has(key)) {
+    diag_.error(mark_, (path_.empty() ? std::string("scene") : path_) + ": missing required key '" + key + "'");
+    node(key);
+    return 0.0;
+  }
+  return optionalNumber(key, range).value_or(0.0);
+}
+
+double MapReader::number(const std::string& key, double fallback, Range range) {
+  return optionalNumber(key, range).value_or(fallback);
+}
+
+std::optional<long> MapReader::optionalInteger(const std::string& key, long min, long max) {
+  auto text = optionalString(key);
+  if (!text) return std::nullopt;
+  try {
+    std::size_t used = 0;
+    const long v = std::stol(*text, &used);
+    if (used != text->size()) throw std::invalid_argument(*text);
+    if (v < min || v > max) {
+      error(key, "must be between " + std::to_string(min) + " and " + std::to_string(max) + " (got " + *text + ")");
+      return std::nullopt;
+    }
+    return v;
+  } catch (const std::exception&) {
+    error(key, "expected an integer, got '" + *text + "'");
+    return std::nullopt;
+  }
+}
+
+long MapReader::integer(const std::string& key, long fallback, long min, long max) {
+  return optionalInteger(key, min, max).value_or(fallback);
+}
+
+bool MapReader::boolean(const std::string& key, bool fallback) {
+  auto text = optionalString(key);
+  if (!text) return fallback;
+  if (*text == "true" || *text == "yes" || *text == "on") return true;
+  if (*text == "false" || *text == "no" || *text == "off") return false;
+  error(key, "expected true or false, got '" + *text + "'");
+  return fallback;
+}
+
+std::vector<std::string> MapReader::stringList(const std::string& key) {
+  auto n = node(key);
+  std::vector<std::string> out;
+  if (!n.IsDefined() || n.IsNull()) return out;
+  if (!n.IsSequence()) {
+    error(key, "expected a list");
+    return out;
+  }
+  for (const auto& item : n) {
+    if (!item.IsScalar()) {
+      diag_.error(item.Mark(), keyPath(key) + ": expected a list of text values");
+      continue;
+    }
+    out.push_back(item.Scalar());
+  }
+  return out;
+}
+
+void MapReader::finish() {
+  if (!valid_) return;
+  std::vector<std::string> known(used_.begin(), used_.end());
+  for (const auto& kv : node_) {
+    const auto key = kv.first.as<std::string>("");
+    if (used_.count(key)) continue;
+    std::string hint;
+    for (const auto& k : known)
+      if (editDistance(k, key) <= 2) hint = " (did you mean '" + k + "'?)";
+    std::string list;
+    for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+    diag_.error(kv.first.Mark(), keyPath(key) + ": unknown key" + hint + "; known keys here: " + list);
+  }
+}
+
+}  // namespace cosim::config
