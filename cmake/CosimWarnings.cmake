@@ -2,7 +2,7 @@
 function(cosim_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow
     -Wnon-virtual-dtor -Wold-style-cast -Wcast-align -Woverloaded-virtual
-    -Wnull-dereference -Wdouble-promotion -Wimplicit-fallthrough)
+    -Wdouble-promotion -Wimplicit-fallthrough)
   if(COSIM_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()

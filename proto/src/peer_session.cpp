@@ -67,7 +67,7 @@ void PeerSession::fault(const std::string& peer, const std::string& what) const 
   if (auto it = peers_.find(peer); it != peers_.end() && it->second.info.pid != 0)
     who += " (" + it->second.info.kind + ", pid " + std::to_string(it->second.info.pid) + " on " +
            it->second.info.host + ")";
-  throw PeerFault(peer, who + " at " + context_ + ": " + what + "; last heard: " + lastHeard(peer));
+  throw PeerFault(peer, who + ", " + context_ + ": " + what + "; last heard: " + lastHeard(peer));
 }
 
 void PeerSession::onHello(const std::string& name, InMessage&& message) {
@@ -268,11 +268,11 @@ std::vector<Reply> PeerSession::awaitReplies(
   return out;
 }
 
-void PeerSession::shutdownAll(const std::string& reason, double timeoutS) {
+void PeerSession::shutdownAll(const std::string& reason, double timeoutS, const std::set<std::string>& skip) {
   const double deadline = monotonicSeconds() + timeoutS;
   std::vector<std::pair<std::string, std::uint64_t>> pending;
   for (auto& [name, p] : peers_) {
-    if (!p.welcomed) continue;
+    if (!p.welcomed || skip.count(name)) continue;
     OutMessage m(64);
     m.envelope().getBody().initShutdown().setReason(reason);
     try {

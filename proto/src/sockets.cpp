@@ -36,7 +36,12 @@ Received decodeFrames(std::vector<zmq::message_t>&& frames, std::string identity
 
 bool waitReadable(zmq::socket_t& socket, std::chrono::milliseconds timeout) {
   zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
-  return zmq::poll(&item, 1, timeout) > 0;
+  try {
+    return zmq::poll(&item, 1, timeout) > 0;
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EINTR) return false;  // a signal: the caller decides what it means
+    throw;
+  }
 }
 
 }  // namespace

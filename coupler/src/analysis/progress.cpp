@@ -9,7 +9,7 @@
 namespace cosim::coupler {
 
 ProgressLine::ProgressLine(bool enabled)
-    : enabled_(enabled), terminal_(::isatty(STDERR_FILENO) == 1), start_(monotonicSeconds()) {}
+    : enabled_(enabled), terminal_(::isatty(STDERR_FILENO) == 1), start_(monotonicSeconds()), lastPrint_(start_) {}
 
 void ProgressLine::update(double time, double endTime, std::uint64_t exchange, std::uint64_t total) {
   if (!enabled_) return;

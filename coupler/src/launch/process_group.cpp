@@ -87,6 +87,16 @@ std::vector<pid_t> ProcessGroup::livePids() const {
   return pids;
 }
 
+void ProcessGroup::kill(const std::string& name) {
+  for (auto& c : children_)
+    if (c.name == name && c.running) {
+      ::kill(c.pid, SIGKILL);
+      int status = 0;
+      ::waitpid(c.pid, &status, 0);
+      c.running = false;
+    }
+}
+
 bool ProcessGroup::reapFinished() {
   bool anyRunning = false;
   for (auto& c : children_) {

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "cosim/coupler/analysis/progress.hpp"
@@ -22,7 +23,9 @@ namespace {
 
 /// A refusal before time zero (handshake, capability, setup or stability).
 struct Refused : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  explicit Refused(const std::string& message, std::string faultyPeer = {})
+      : std::runtime_error(message), peer(std::move(faultyPeer)) {}
+  std::string peer;  // a peer known to be broken, not to be waited for
 };
 struct Interrupted : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -66,10 +69,12 @@ class CouplerRun final : public ExchangeDriver {
     } catch (const config::ConfigError& e) {
       finish("refused", e.what(), kExitBadConfig);
     } catch (const Refused& e) {
+      if (!e.peer.empty()) faulty_.insert(e.peer);
       finish("refused", e.what(), kExitRefused);
     } catch (const Interrupted& e) {
       finish("interrupted", e.what(), kExitInterrupted);
     } catch (const wire::PeerFault& e) {
+      faulty_.insert(e.peer());
       finish(report_.status == "running" ? "failed" : "refused", e.what(),
              report_.status == "running" ? kExitPeerFault : kExitRefused);
     } catch (const std::exception& e) {
@@ -87,7 +92,7 @@ class CouplerRun final : public ExchangeDriver {
   void exchange(const std::map<std::string, AdvancePlan>& plans, double newTime) override {
     checkInterrupt();
     ++exchange_;
-    session_->setContext("exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) + " s)");
+    session_->setContext(context());
     std::vector<std::pair<std::string, std::uint64_t>> pending;
     std::vector<double> sentAt;
     {
@@ -110,6 +115,7 @@ class CouplerRun final : public ExchangeDriver {
     for (std::size_t i = 0; i < replies.size(); ++i) takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i]);
     runCouplings();
     record();
+    completed_ = exchange_;
     progress_.update(time_, scene_.schedule->endTime(), exchange_, scene_.schedule->exchanges());
   }
 
@@ -154,13 +160,13 @@ class CouplerRun final : public ExchangeDriver {
   void watchdog() {
     if (auto exit = processes_.reapOne())
       throw wire::PeerFault(exit->name, "peer '" + exit->name + "' (pid " + std::to_string(exit->pid) + ") " + exit->how +
-                                            " at " + context() + "; last heard: " + session_->lastHeard(exit->name));
+                                            ", " + context() + "; last heard: " + session_->lastHeard(exit->name));
     checkInterrupt();
   }
 
   std::string context() const {
     return exchange_ == 0 ? std::string("before time zero")
-                          : "exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) + " s)";
+                          : "at exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) + " s)";
   }
 
   void checkHellos() {
@@ -184,12 +190,12 @@ class CouplerRun final : public ExchangeDriver {
                       joined(info.capabilities) + ")";
             break;
           }
-      if (!problem.empty()) {
-        session_->refuse(s.name, problem);
-        problems.push_back(problem);
-      }
+      if (!problem.empty()) problems.push_back(problem);
     }
-    if (!problems.empty()) throw Refused(joined(problems));
+    if (problems.empty()) return;
+    // Every peer hears why the run will not start, so all of them leave now.
+    for (const auto& s : scene_.solvers) session_->refuse(s.name, "run refused: " + joined(problems));
+    throw Refused(joined(problems));
   }
 
   void setUpPeers() {
@@ -207,7 +213,7 @@ class CouplerRun final : public ExchangeDriver {
     try {
       replies = session_->awaitReplies(pending);
     } catch (const wire::PeerFault& e) {
-      throw Refused(std::string("setup failed: ") + e.what());
+      throw Refused(std::string("setup failed: ") + e.what(), e.peer());
     }
     std::map<std::string, double> critical;
     for (std::size_t i = 0; i < replies.size(); ++i) {
@@ -281,7 +287,7 @@ class CouplerRun final : public ExchangeDriver {
     report_.status = status;
     report_.message = message;
     report_.exitCode = code;
-    report_.exchanges = exchange_;
+    report_.exchanges = completed_;
     report_.simulatedTime = time_;
   }
 
@@ -289,7 +295,7 @@ class CouplerRun final : public ExchangeDriver {
     progress_.finish();
     if (session_) {
       session_->setWatchdog(nullptr);
-      session_->shutdownAll(report_.status, 3.0);
+      session_->shutdownAll(report_.status, 3.0, faulty_);
       for (auto& [name, t] : timings_) {
         const auto& traffic = session_->traffic(name);
         t.messagesSent = traffic.messagesSent;
@@ -299,6 +305,7 @@ class CouplerRun final : public ExchangeDriver {
         report_.peers.push_back(t);
       }
     }
+    for (const auto& name : faulty_) processes_.kill(name);  // dead or hung: no grace
     processes_.terminateAll(1.0, 2.0);
     for (const auto& [name, msg] : latest_) {
       auto body = msg.envelope().getBody();
@@ -332,11 +339,13 @@ class CouplerRun final : public ExchangeDriver {
   std::optional<wire::RouterSocket> socket_;
   std::optional<wire::PeerSession> session_;
   ProcessGroup processes_;
+  std::set<std::string> faulty_;
   std::map<std::string, wire::InMessage> latest_;
   std::map<std::string, proto::CouplingData::Reader> outputs_;
   std::map<std::string, InputAssembler> inputs_;
   std::map<std::string, PeerTiming> timings_;
-  std::uint64_t exchange_ = 0;
+  std::uint64_t exchange_ = 0;   // the exchange in progress (or last done)
+  std::uint64_t completed_ = 0;  // exchanges fully done and recorded
   double time_ = 0.0;
 };
 

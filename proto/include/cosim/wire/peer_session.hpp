@@ -82,8 +82,9 @@ class PeerSession {
   /// Waits for several replies at once (peers compute in parallel meanwhile).
   std::vector<Reply> awaitReplies(const std::vector<std::pair<std::string, std::uint64_t>>& pending);
 
-  /// Asks every welcomed peer to shut down and waits up to timeoutS for their answers.
-  void shutdownAll(const std::string& reason, double timeoutS);
+  /// Asks every welcomed peer (but those in skip: known dead or hung) to shut
+  /// down and waits up to timeoutS for their answers.
+  void shutdownAll(const std::string& reason, double timeoutS, const std::set<std::string>& skip = {});
 
   /// Sends heartbeats that are due and takes in whatever arrived, up to timeout.
   void pump(std::chrono::milliseconds timeout);
@@ -118,7 +119,7 @@ class PeerSession {
   std::map<std::string, Peer> peers_;
   std::set<std::string> expected_;
   std::function<void()> watchdog_;
-  std::string context_ = "before time zero";
+  std::string context_ = "before time zero";  // "at exchange 37 (t = 0.037 s)"
   double nextHeartbeat_ = 0.0;
   std::uint64_t heartbeatSeq_ = 0;
 };

@@ -33,6 +33,8 @@ class ProcessGroup {
   /// SIGKILL after graceS more, and reaps them all.
   void terminateAll(double politeS, double graceS);
   std::vector<pid_t> livePids() const;
+  /// SIGKILL to a child known to be broken (hung or misbehaving); reaps it.
+  void kill(const std::string& name);
 
  private:
   struct Child {

@@ -1,0 +1,342 @@
+// Integration: `coupler run` with scripted mock solvers. Each test writes a
+// scene, runs the real coupler (which starts real mock processes), and checks
+// exit code, messages, coupler.h5, the run report, and that no process is
+// left behind.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+#include "cosim/wire/sockets.hpp"
+#include "mock_pattern.hpp"
+#include "subprocess.hpp"
+
+namespace cosim::testing {
+namespace {
+namespace fs = std::filesystem;
+
+struct SceneOptions {
+  std::string left = "{seed: 1, length: 64, expect_seed: 2}";
+  std::string right = "{seed: 2, length: 64, expect_seed: 1}";
+  std::string leftExtra;   // more keys of the left solver entry, e.g. "args: [...]"
+  std::string rightExtra;
+  std::string schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 100}";
+  std::string transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 30}";
+};
+
+class CouplerRun : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = freshDirectory("cosim-it"); }
+  void TearDown() override {
+    EXPECT_TRUE(processesMentioning(dir_.string()).empty()) << "processes left behind for " << dir_;
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  std::string writeScene(const SceneOptions& o) {
+    const auto path = dir_ / "scene.yaml";
+    std::ofstream f(path);
+    f << "scene: it\n"
+      << "schedule: " << o.schedule << "\n"
+      << "transport: " << o.transport << "\n"
+      << "solvers:\n"
+      << "  - name: left\n    kind: mock\n    params: " << o.left << "\n"
+      << (o.leftExtra.empty() ? "" : "    " + o.leftExtra + "\n")
+      << "  - name: right\n    kind: mock\n    params: " << o.right << "\n"
+      << (o.rightExtra.empty() ? "" : "    " + o.rightExtra + "\n")
+      << "couplings:\n"
+      << "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n"
+      << "  - {name: r2l, kind: direct-transfer, from: right, to: left, arrays: [state]}\n"
+      << "output:\n  dir: " << (dir_ / "run").string() << "\n"
+      << "  record: [left.digest, left.mismatches, right.digest, right.mismatches]\n";
+    return path.string();
+  }
+
+  Finished runCoupler(const SceneOptions& o, std::vector<std::string> extra = {}, double timeoutS = 60) {
+    std::vector<std::string> argv{binary("coupler"), "run", writeScene(o), "--no-progress"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto f = run(argv, timeoutS);
+    EXPECT_FALSE(f.timedOut) << "the coupler hung; stderr:\n" << f.err;
+    return f;
+  }
+
+  nlohmann::json report() const {
+    std::ifstream in(dir_ / "run" / "run_report.json");
+    return nlohmann::json::parse(in);
+  }
+
+  fs::path runDir() const { return dir_ / "run"; }
+  fs::path dir_;
+};
+
+/// The fingerprint a mock reports for a pattern, as its two 32-bit halves.
+std::pair<double, double> expectedDigest(std::uint64_t seed, std::uint64_t exchange, std::size_t length) {
+  const auto fp = wire::fingerprint(mock::pattern(seed, exchange, length));
+  return {static_cast<double>(fp >> 32), static_cast<double>(fp & 0xffffffffull)};
+}
+
+TEST_F(CouplerRun, ThousandExchangesAreBitForBit) {
+  SceneOptions o;
+  o.left = "{seed: 11, length: 1000, expect_seed: 22}";
+  o.right = "{seed: 22, length: 1000, expect_seed: 11}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000}";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  const auto time = h5.readArray("/series/time");
+  ASSERT_EQ(time.size(), 1001u);  // setup + 1000 exchanges
+  EXPECT_DOUBLE_EQ(time.back(), 1.0);
+  for (const auto& [name, peerSeed] : {std::pair{"left", 22}, std::pair{"right", 11}}) {
+    const auto digest = h5.readArray(std::string("/series/") + name + "/digest");
+    const auto mismatches = h5.readArray(std::string("/series/") + name + "/mismatches");
+    ASSERT_EQ(digest.size(), 2 * 1001u);
+    EXPECT_EQ(digest[0], -1.0) << "nothing is received at setup";
+    for (std::uint64_t k = 1; k <= 1000; ++k) {
+      const auto [hi, lo] = expectedDigest(static_cast<std::uint64_t>(peerSeed), k - 1, 1000);
+      ASSERT_EQ(digest[2 * k], hi) << name << " exchange " << k;
+      ASSERT_EQ(digest[2 * k + 1], lo) << name << " exchange " << k;
+      ASSERT_EQ(mismatches[k], 0.0) << name << " exchange " << k;
+    }
+  }
+  const auto r = report();
+  EXPECT_EQ(r["status"], "completed");
+  EXPECT_EQ(r["exchanges"], 1000);
+  EXPECT_EQ(r["peers"].size(), 2u);
+  EXPECT_GT(r["peers"][0]["bytes_sent"].get<double>(), 1000 * 1000 * 8.0);
+  EXPECT_NE(f.out.find("run report: scene 'it' completed"), std::string::npos) << f.out;
+}
+
+TEST_F(CouplerRun, KilledPeerIsNamedAndOutputStaysReadable) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, die_at: 50}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("peer 'left'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("killed by signal 9"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("exchange 50"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("last heard"), std::string::npos) << f.err;
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  EXPECT_EQ(h5.readArray("/series/time").size(), 50u);  // setup + exchanges 1..49
+  EXPECT_EQ(report()["status"], "failed");
+}
+
+TEST_F(CouplerRun, FrozenPeerIsCaughtByTheHeartbeat) {
+  SceneOptions o;
+  o.right = "{seed: 2, length: 64, freeze_at: 20}";
+  const auto f = runCoupler(o, {}, 30);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("peer 'right'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("heartbeat timeout"), std::string::npos) << f.err;
+  EXPECT_LT(f.wallS, 10.0);
+}
+
+TEST_F(CouplerRun, StalledComputationMissesItsDeadline) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, stall_at: 5}";
+  o.transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 1.5}";
+  const auto f = runCoupler(o, {}, 30);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("no reply to 'advance'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("heartbeat (computing)"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, ProtocolMismatchIsRefusedBeforeTimeZero) {
+  SceneOptions o;
+  o.rightExtra = "args: [--mock-protocol-major, '99']";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("solver 'right'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("speaks protocol 99.0"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("the coupler speaks 1.0"), std::string::npos) << f.err;
+  EXPECT_EQ(report()["exchanges"], 0);
+}
+
+TEST_F(CouplerRun, MissingCapabilityIsRefused) {
+  SceneOptions o;
+  o.leftExtra = "args: [--mock-capabilities, 'setup,advance']";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("lacks capability 'arrays'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("it offers: setup, advance"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, WrongKindIsRefused) {
+  SceneOptions o;
+  o.leftExtra = "args: [--mock-kind, dem]";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("reports kind 'dem' but the scene declares kind 'mock'"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, BadSolverParamsNameTheSceneLine) {
+  SceneOptions o;
+  o.right = "{seed: 2, length: -5}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("scene.yaml:10: solvers.right.params.length"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, SolverErrorDuringRunStopsIt) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, fail_at: 10}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("scripted failure at exchange 10"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, NonFiniteEnergyStopsTheRunWithADiagnosis) {
+  SceneOptions o;
+  o.right = "{seed: 2, length: 64, nan_at: 7}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("solver 'right' reported kinetic = nan at exchange 7"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("unstable"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, StepAboveTheCriticalStepIsRefusedUnlessForced) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, critical_dt: 1.0e-4}";
+  auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("exceeds the critical time step 0.0001 s of solver 'left'"), std::string::npos) << f.err;
+  f = runCoupler(o, {"--force"});
+  EXPECT_EQ(f.code, 0) << f.err;
+}
+
+TEST_F(CouplerRun, AutoStepUsesTheSafetyFactor) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, critical_dt: 2.0e-4}";
+  o.schedule = "{kind: lockstep, dt: auto, safety: 0.5, exchanges: 10}";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  EXPECT_NEAR(h5.readArray("/series/time").back(), 10 * 1.0e-4, 1e-15);
+}
+
+TEST_F(CouplerRun, TcpTransportOnLoopback) {
+  SceneOptions o;
+  o.transport = "{kind: tcp, heartbeat_interval: 0.1, heartbeat_timeout: 1.0}";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  EXPECT_EQ(h5.readArray("/series/right/mismatches").size(), 101u);
+  for (double m : h5.readArray("/series/right/mismatches")) EXPECT_EQ(m, 0.0);
+}
+
+TEST_F(CouplerRun, GarbageSentToTheEndpointDoesNotDisturbTheRun) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, expect_seed: 2, compute_seconds: 0.003}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 400}";
+  Subprocess coupler({binary("coupler"), "run", writeScene(o), "--no-progress"});
+  const auto socketPath = runDir() / "coupler.sock";
+  for (int i = 0; i < 200 && !fs::exists(socketPath); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(socketPath));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::mt19937 rng(7);
+  // Raw bytes that are not even ZMTP.
+  for (int i = 0; i < 20; ++i) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, socketPath.c_str(), sizeof(addr.sun_path) - 1);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0) {
+      std::vector<char> junk(1 + rng() % 4096);
+      for (auto& c : junk) c = static_cast<char>(rng());
+      [[maybe_unused]] auto n = ::write(fd, junk.data(), junk.size());
+    }
+    ::close(fd);
+  }
+  // Well-formed ZeroMQ frames that are not our protocol, from an unknown peer,
+  // and a valid envelope from one that never said hello.
+  {
+    wire::DealerSocket intruder("ipc://" + socketPath.string(), "intruder");
+    for (int i = 0; i < 50; ++i) {
+      std::vector<char> junk(1 + rng() % 512);
+      for (auto& c : junk) c = static_cast<char>(rng());
+      zmq::message_t m(junk.data(), junk.size());
+      intruder.raw().send(m, zmq::send_flags::none);
+    }
+    wire::OutMessage advance;
+    advance.envelope().setSeq(1);
+    advance.envelope().getBody().initAdvance().setSteps(1);
+    intruder.send(advance);
+    auto answer = intruder.receive(std::chrono::milliseconds(5000));
+    ASSERT_TRUE(answer && answer->message);
+    EXPECT_TRUE(answer->message->envelope().getBody().isError());
+  }
+  const int code = coupler.wait(60);
+  ASSERT_EQ(code, 0) << coupler.err();
+  EXPECT_NE(coupler.err().find("malformed"), std::string::npos) << "garbage should be logged";
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  for (double m : h5.readArray("/series/left/mismatches")) ASSERT_EQ(m, 0.0);
+}
+
+TEST_F(CouplerRun, InterruptStopsTheRunCleanly) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, compute_seconds: 0.005}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000000}";
+  Subprocess coupler({binary("coupler"), "run", writeScene(o), "--no-progress"});
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  coupler.signal(SIGINT);
+  const int code = coupler.wait(20);
+  EXPECT_EQ(code, 130) << coupler.err();
+  EXPECT_NE(coupler.err().find("stopped by signal 2"), std::string::npos) << coupler.err();
+  EXPECT_EQ(report()["status"], "interrupted");
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  EXPECT_GT(h5.readArray("/series/time").size(), 10u);
+}
+
+TEST_F(CouplerRun, SolversDieWithAKilledCoupler) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, compute_seconds: 0.005}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000000}";
+  Subprocess coupler({binary("coupler"), "run", writeScene(o), "--no-progress"});
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ASSERT_EQ(processesMentioning(dir_.string()).size(), 3u);  // coupler + 2 mocks
+  coupler.signal(SIGKILL);
+  coupler.wait(5);
+  for (int i = 0; i < 100 && !processesMentioning(dir_.string()).empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_TRUE(processesMentioning(dir_.string()).empty());
+}
+
+TEST_F(CouplerRun, AttachedSolverStartedByHand) {
+  SceneOptions o;
+  o.rightExtra = "launch: attach";
+  Subprocess coupler({binary("coupler"), "run", writeScene(o), "--no-progress"});
+  const auto socketPath = runDir() / "coupler.sock";
+  for (int i = 0; i < 200 && !fs::exists(socketPath); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(socketPath));
+  Subprocess byHand({binary("mock_solver"), "--endpoint", "ipc://" + socketPath.string(), "--name", "right"});
+  ASSERT_EQ(coupler.wait(60), 0) << coupler.err();
+  EXPECT_EQ(byHand.wait(10), 0) << byHand.err();
+  EXPECT_NE(coupler.err().find("waiting for solver 'right' to connect"), std::string::npos);
+}
+
+TEST_F(CouplerRun, SolverLeavesWhenTheCouplerFallsSilent) {
+  // A solver whose coupler vanishes (no heartbeats) exits by itself.
+  const auto endpoint = "ipc://" + (dir_ / "silent.sock").string();
+  wire::RouterSocket router(endpoint);
+  Subprocess solver({binary("mock_solver"), "--endpoint", endpoint, "--name", "lonely"});
+  std::optional<wire::Received> hello;
+  for (int i = 0; i < 50 && !(hello && hello->identity == "lonely"); ++i)
+    hello = router.receive(std::chrono::milliseconds(100));
+  ASSERT_TRUE(hello && hello->message && hello->message->envelope().getBody().isHello());
+  wire::OutMessage welcome;
+  auto w = welcome.envelope().getBody().initWelcome();
+  w.setHeartbeatIntervalS(0.1);
+  w.setHeartbeatTimeoutS(0.5);
+  ASSERT_TRUE(router.send("lonely", welcome));
+  EXPECT_EQ(solver.wait(10), 4) << solver.err();
+  EXPECT_NE(solver.err().find("the coupler went away"), std::string::npos) << solver.err();
+}
+
+}  // namespace
+}  // namespace cosim::testing

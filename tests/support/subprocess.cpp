@@ -1,0 +1,133 @@
+#include "subprocess.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <stdexcept>
+
+namespace cosim::testing {
+namespace {
+double now() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+Subprocess::Subprocess(const std::vector<std::string>& argv) {
+  int out[2], err[2];
+  if (::pipe(out) != 0 || ::pipe(err) != 0) throw std::runtime_error("pipe failed");
+  std::vector<std::string> store = argv;
+  std::vector<char*> args;
+  for (auto& a : store) args.push_back(a.data());
+  args.push_back(nullptr);
+  pid_ = ::fork();
+  if (pid_ < 0) throw std::runtime_error("fork failed");
+  if (pid_ == 0) {
+    ::dup2(out[1], 1);
+    ::dup2(err[1], 2);
+    ::close(out[0]);
+    ::close(err[0]);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  ::close(out[1]);
+  ::close(err[1]);
+  outFd_ = out[0];
+  errFd_ = err[0];
+}
+
+Subprocess::~Subprocess() {
+  if (!done_) {
+    ::kill(pid_, SIGKILL);
+    wait(5.0);
+  }
+  if (outFd_ >= 0) ::close(outFd_);
+  if (errFd_ >= 0) ::close(errFd_);
+}
+
+void Subprocess::signal(int sig) const { ::kill(pid_, sig); }
+
+void Subprocess::drain(double timeoutS) {
+  pollfd fds[2] = {{outFd_, POLLIN, 0}, {errFd_, POLLIN, 0}};
+  if (::poll(fds, 2, static_cast<int>(timeoutS * 1000)) <= 0) return;
+  char buf[65536];
+  for (int i = 0; i < 2; ++i)
+    if (fds[i].revents & (POLLIN | POLLHUP)) {
+      const auto n = ::read(fds[i].fd, buf, sizeof(buf));
+      if (n > 0) (i == 0 ? out_ : err_).append(buf, static_cast<std::size_t>(n));
+    }
+}
+
+int Subprocess::wait(double timeoutS) {
+  if (done_) return code_;
+  const double end = now() + timeoutS;
+  int status = 0;
+  while (true) {
+    drain(0.02);
+    const pid_t r = ::waitpid(pid_, &status, WNOHANG);
+    if (r == pid_) break;
+    if (now() > end) {
+      timedOut_ = true;
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, &status, 0);
+      break;
+    }
+  }
+  for (int i = 0; i < 50; ++i) drain(0.0);  // what is left in the pipes
+  done_ = true;
+  code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return code_;
+}
+
+Finished run(const std::vector<std::string>& argv, double timeoutS) {
+  const double start = now();
+  Subprocess p(argv);
+  Finished f;
+  f.code = p.wait(timeoutS);
+  f.timedOut = p.timedOut();
+  f.out = p.out();
+  f.err = p.err();
+  f.wallS = now() - start;
+  return f;
+}
+
+std::vector<pid_t> processesMentioning(const std::string& needle) {
+  std::vector<pid_t> pids;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const auto name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream status(entry.path() / "stat");
+    std::string pidText, comm, state;
+    if (!(status >> pidText >> comm >> state) || state == "Z") continue;
+    std::ifstream cmd(entry.path() / "cmdline");
+    std::string line((std::istreambuf_iterator<char>(cmd)), std::istreambuf_iterator<char>());
+    for (auto& c : line)
+      if (c == '\0') c = ' ';
+    if (line.find(needle) != std::string::npos) pids.push_back(std::stoi(name));
+  }
+  return pids;
+}
+
+std::filesystem::path freshDirectory(const std::string& prefix) {
+  std::string templ = (std::filesystem::temp_directory_path() / (prefix + "-XXXXXX")).string();
+  if (::mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  return templ;
+}
+
+std::string binary(const std::string& name) {
+  const char* dir = std::getenv("COSIM_BIN_DIR");
+  return std::string(dir ? dir : COSIM_DEFAULT_BIN_DIR) + "/" + name;
+}
+
+std::string sourcePath(const std::string& relative) {
+  const char* dir = std::getenv("COSIM_SOURCE_DIR");
+  return std::string(dir ? dir : COSIM_DEFAULT_SOURCE_DIR) + "/" + relative;
+}
+
+}  // namespace cosim::testing
