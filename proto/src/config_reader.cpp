@@ -1,6 +1,8 @@
 #include "cosim/config/config_reader.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -29,13 +31,13 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+}  // namespace
+
 std::string formatNumber(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
 }
-
-}  // namespace
 
 ConfigError::ConfigError(const std::vector<std::string>& lines) : std::runtime_error(join(lines)), lines_(lines) {}
 
@@ -52,11 +54,18 @@ void Diagnostics::throwIfAny() const {
 }
 
 YAML::Node loadYamlString(const std::string& text, const std::string& name) {
+  std::vector<YAML::Node> documents;
   try {
-    return YAML::Load(text);
+    documents = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
     throw ConfigError({name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg});
   }
+  // A second document would be silently ignored by everyone reading the first.
+  if (documents.size() > 1)
+    throw ConfigError({name + ":" + std::to_string(documents[1].Mark().line + 1) +
+                       ": a config is one YAML document; this file has " + std::to_string(documents.size()) +
+                       " (remove the '---' separator)"});
+  return documents.empty() ? YAML::Node() : documents.front();
 }
 
 YAML::Node loadYamlFile(const std::string& path) {
@@ -69,18 +78,17 @@ YAML::Node loadYamlFile(const std::string& path) {
 
 std::optional<double> parseNumber(const std::string& text) {
   if (text.empty()) return std::nullopt;
-  std::string t = text;
-  if (t == ".inf" || t == "+.inf") return std::numeric_limits<double>::infinity();
-  if (t == "-.inf") return -std::numeric_limits<double>::infinity();
-  if (t == ".nan" || t == ".NaN") return std::numeric_limits<double>::quiet_NaN();
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(t, &used);
-    if (used != t.size()) return std::nullopt;
-    return v;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
+  std::string lower = text;
+  for (auto& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower == ".inf" || lower == "+.inf") return std::numeric_limits<double>::infinity();
+  if (lower == "-.inf") return -std::numeric_limits<double>::infinity();
+  if (lower == ".nan") return std::numeric_limits<double>::quiet_NaN();
+  // strtod, not stod: a subnormal such as 1e-310 is a number, and an overflow
+  // comes back as inf (reported as "must be finite") rather than an exception.
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || text.find_first_of("xXpP") != std::string::npos) return std::nullopt;
+  return v;
 }
 
 std::string Range::describe() const {
@@ -195,15 +203,19 @@ double MapReader::number(const std::string& key, double fallback, Range range) {
 std::optional<long> MapReader::optionalInteger(const std::string& key, long min, long max) {
   auto text = optionalString(key);
   if (!text) return std::nullopt;
+  const auto range = "must be between " + std::to_string(min) + " and " + std::to_string(max) + " (got " + *text + ")";
   try {
     std::size_t used = 0;
     const long v = std::stol(*text, &used);
     if (used != text->size()) throw std::invalid_argument(*text);
     if (v < min || v > max) {
-      error(key, "must be between " + std::to_string(min) + " and " + std::to_string(max) + " (got " + *text + ")");
+      error(key, range);
       return std::nullopt;
     }
     return v;
+  } catch (const std::out_of_range&) {
+    error(key, range);
+    return std::nullopt;
   } catch (const std::exception&) {
     error(key, "expected an integer, got '" + *text + "'");
     return std::nullopt;

@@ -18,6 +18,13 @@ using config::Range;
 
 namespace {
 
+// Instance and coupling names: they become routing ids and HDF5 group names,
+// and `solver.array` references split at the dot, so no dots.
+bool isInstanceName(const std::string& name) {
+  static const std::regex pattern("[A-Za-z][A-Za-z0-9_-]*");
+  return std::regex_match(name, pattern);
+}
+
 // The binary each solver kind runs when a scene names no `binary`.
 const std::map<std::string, std::string>& defaultBinaries() {
   static const std::map<std::string, std::string> m{
@@ -49,7 +56,7 @@ void readTransport(MapReader& m, Scene& scene) {
   scene.connectTimeoutS = m.number("connect_timeout", 30.0, Range::positive());
   if (l.heartbeatTimeoutS <= 2.0 * l.heartbeatIntervalS)
     m.error("heartbeat_timeout", "must be more than twice heartbeat_interval (" +
-                                     std::to_string(l.heartbeatIntervalS) + " s), or every late beat is a fault");
+                                     config::formatNumber(l.heartbeatIntervalS) + " s), or every late beat is a fault");
   if (t.kind == wire::TransportOptions::Kind::ipc && m.has("port"))
     m.error("port", "only a tcp transport has a port");
 }
@@ -58,9 +65,8 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
   SolverSpec s;
   s.line = m.mark().line + 1;
   s.name = m.requireString("name");
-  static const std::regex namePattern("[A-Za-z][A-Za-z0-9_.-]*");
-  if (!s.name.empty() && !std::regex_match(s.name, namePattern))
-    m.error("name", "'" + s.name + "' is not a valid instance name (letters, digits, '_', '.', '-', starting with a letter)");
+  if (!s.name.empty() && !isInstanceName(s.name))
+    m.error("name", "'" + s.name + "' is not a valid instance name (letters, digits, '_', '-', starting with a letter)");
   if (!s.name.empty() && !names.insert(s.name).second) m.error("name", "a solver named '" + s.name + "' is already declared");
   s.kind = m.requireString("kind");
   const auto binary = m.optionalString("binary");
@@ -117,6 +123,8 @@ void readCouplings(MapReader& root, Scene& scene) {
     MapReader m(list[i], "couplings[" + std::to_string(i) + "]", root.diagnostics());
     if (!m.valid()) continue;
     const auto name = m.string("name", "coupling" + std::to_string(i));
+    if (!isInstanceName(name))
+      m.error("name", "'" + name + "' is not a valid coupling name (letters, digits, '_', '-', starting with a letter)");
     if (!names.insert(name).second) m.error("name", "a coupling named '" + name + "' is already declared");
     const auto kind = m.requireString("kind");
     if (kind.empty()) continue;
@@ -169,14 +177,6 @@ void readOutput(MapReader& root, Scene& scene) {
     scene.output.record.push_back(r);
   }
   m.finish();
-}
-
-void crossCheck(MapReader& root, Scene& scene) {
-  for (const auto& c : scene.couplings)
-    for (const auto& p : c->participants())
-      if (!scene.solver(p) && !p.empty())
-        root.diagnostics().error(root.markOf("couplings"),
-                                 "couplings: '" + c->name() + "' names solver '" + p + "', which is not declared under solvers");
 }
 
 }  // namespace
@@ -253,7 +253,6 @@ Scene loadScene(const std::string& path) {
   readSchedule(root, scene);
   readCouplings(root, scene);
   readOutput(root, scene);
-  crossCheck(root, scene);
   root.finish();
   diag.throwIfAny();
   return scene;

@@ -16,16 +16,12 @@ class DirectTransfer final : public Coupling {
  public:
   DirectTransfer(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers)
       : Coupling(name) {
-    from_ = m.requireString("from");
-    to_ = m.requireString("to");
+    from_ = requireSolverName(m, "from", solvers);
+    to_ = requireSolverName(m, "to", solvers);
+    const bool given = m.has("arrays");
     arrays_ = m.stringList("arrays");
-    if (arrays_.empty() && !m.has("arrays")) m.error("arrays", "missing: the names of the arrays to transfer");
-    for (const auto* which : {&from_, &to_}) {
-      bool known = which->empty();
-      for (const auto& s : solvers) known = known || s.name == *which;
-      if (!known)
-        m.error(which == &from_ ? "from" : "to", "'" + *which + "' is not a solver declared under solvers");
-    }
+    if (arrays_.empty()) m.error("arrays", given ? "is empty: name at least one array to transfer"
+                                                 : "missing: the names of the arrays to transfer");
     if (!from_.empty() && from_ == to_) m.error("to", "a transfer needs two different solvers");
   }
 

@@ -27,6 +27,9 @@ class Lockstep final : public Schedule {
     endTime_ = m.optionalNumber("end_time", config::Range::positive());
     fixedExchanges_ = m.optionalInteger("exchanges", 1, 1000000000000L);
     if (endTime_ && fixedExchanges_) m.error("exchanges", "give end_time or exchanges, not both");
+    if (endTime_ && dt_ > 0.0 && !withinExchangeLimit())
+      m.error("end_time", "end_time / (dt x steps_per_exchange) = " + toString(*endTime_ / (dt_ * stepsPerExchange_)) +
+                              " exchanges, more than the " + toString(kMaxExchanges) + " a run may have");
     if (!endTime_ && !fixedExchanges_ && !m.has("end_time") && !m.has("exchanges"))
       m.diagnostics().error(m.mark(), "schedule: give the run's length as end_time (s) or exchanges");
   }
@@ -54,6 +57,10 @@ class Lockstep final : public Schedule {
       if (std::isinf(limit))
         throw std::runtime_error("schedule.dt: 'auto' needs a solver that reports a critical time step; none does");
       dt_ = safety_ * limit;
+      if (endTime_ && !withinExchangeLimit())
+        throw std::runtime_error("schedule: dt: auto gives " + toString(dt_) + " s, so end_time needs " +
+                                 toString(*endTime_ / (dt_ * stepsPerExchange_)) + " exchanges, more than the " +
+                                 toString(kMaxExchanges) + " a run may have");
     } else if (dt_ > limit && !force) {
       throw std::runtime_error("schedule.dt = " + toString(dt_) + " s exceeds the critical time step " +
                                toString(limit) + " s of solver '" + limiting +
@@ -80,6 +87,8 @@ class Lockstep final : public Schedule {
   }
 
  private:
+  static constexpr double kMaxExchanges = 1e12;
+  bool withinExchangeLimit() const { return *endTime_ / (dt_ * stepsPerExchange_) <= kMaxExchanges; }
   static std::string toString(double v) {
     std::ostringstream s;
     s << v;

@@ -98,8 +98,11 @@ class MapReader {
   std::set<std::string> used_;
 };
 
-/// Reads a scalar as a number: plain YAML numbers, and the "auto"-free cases only.
+/// Reads a scalar as a number (YAML's .inf/.nan spellings included); empty when it is not one.
 std::optional<double> parseNumber(const std::string& text);
+
+/// Shortest decimal text of a number, for messages ("0.001", not "0.001000").
+std::string formatNumber(double value);
 
 }  // namespace cosim::config
 

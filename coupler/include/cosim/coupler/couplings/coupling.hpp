@@ -70,6 +70,9 @@ class Coupling {
   std::string name_;
 };
 
+/// Reads a key that names a declared solver (reporting a dangling reference at its line).
+std::string requireSolverName(config::MapReader& m, const std::string& key, const std::vector<SolverSpec>& solvers);
+
 /// Factories read their own keys from the coupling's map (name and kind are
 /// already read) and may check solver names against the scene's solvers.
 using CouplingRegistry = Registry<Coupling, const std::string&, config::MapReader&, const std::vector<SolverSpec>&>;

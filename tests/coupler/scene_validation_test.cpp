@@ -1,0 +1,484 @@
+// Scene validation: every bad scene in tests/coupler/bad_scenes/ carries, on
+// its first line, `# expect: <line>: <text>`; loading it must fail with a
+// ConfigError line `<file>:<line>: ...<text>...`. Good scenes (the demo and a
+// few variants) must load with the values they state, and `coupler check`
+// must exit 2 on a bad scene and 0 on a good one, starting no process.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/run/coupler_run.hpp"
+
+namespace fs = std::filesystem;
+using cosim::config::ConfigError;
+using cosim::coupler::loadScene;
+using cosim::coupler::Scene;
+using cosim::coupler::SolverSpec;
+
+namespace {
+
+// ctest sets these; the compile-time values serve test discovery and direct runs.
+std::string envOr(const char* name, const char* fallback) {
+  const char* v = std::getenv(name);
+  return v && *v ? std::string(v) : std::string(fallback);
+}
+fs::path sourceDir() { return envOr("COSIM_SOURCE_DIR", COSIM_TEST_SOURCE_DIR); }
+fs::path binDir() { return envOr("COSIM_BIN_DIR", COSIM_TEST_BIN_DIR); }
+fs::path badSceneDir() { return sourceDir() / "tests" / "coupler" / "bad_scenes"; }
+fs::path demoScene() { return sourceDir() / "configs" / "demo" / "two_mocks.yaml"; }
+
+std::vector<std::string> badSceneFiles() {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(badSceneDir(), ec))
+    if (e.is_regular_file() && e.path().extension() == ".yaml") files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+struct Expectation {
+  int line = 0;
+  std::string text;
+};
+
+/// Parses `# expect: <line>: <text>` from the first line; line 0 when malformed.
+Expectation readExpectation(const std::string& file) {
+  std::ifstream in(file);
+  std::string first;
+  std::getline(in, first);
+  const std::string tag = "# expect: ";
+  Expectation e;
+  if (first.rfind(tag, 0) != 0) return e;
+  const auto colon = first.find(": ", tag.size());
+  if (colon == std::string::npos) return e;
+  try {
+    e.line = std::stoi(first.substr(tag.size(), colon - tag.size()));
+  } catch (const std::exception&) {
+    return e;
+  }
+  e.text = first.substr(colon + 2);
+  while (!e.text.empty() && std::isspace(static_cast<unsigned char>(e.text.back()))) e.text.pop_back();
+  return e;
+}
+
+std::string readText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// The ConfigError lines of loading path; fails the test when it loads.
+std::vector<std::string> loadErrors(const std::string& path) {
+  try {
+    loadScene(path);
+  } catch (const ConfigError& e) {
+    return e.lines();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << path << ": threw something other than ConfigError: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << path << ": loaded, but it should have been refused";
+  return {};
+}
+
+std::string joined(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const auto& l : lines) out += "\n  " + l;
+  return out;
+}
+
+/// True when one error line starts with `file:line: ` and contains text.
+bool reported(const std::vector<std::string>& lines, const std::string& file, int line, const std::string& text) {
+  const std::string where = file + ":" + std::to_string(line) + ": ";
+  return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) {
+    return l.rfind(where, 0) == 0 && l.find(text, where.size()) != std::string::npos;
+  });
+}
+
+/// A private scratch directory, removed with everything in it.
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "cosim_cfg_test_XXXXXX").string();
+    if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = tmpl;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const fs::path& path() const { return path_; }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path_ / name) << text;
+    return (path_ / name).string();
+  }
+
+ private:
+  fs::path path_;
+};
+
+// ---------------------------------------------------------------------------
+// Every bad scene is refused at the line and with the message it announces.
+
+class BadScene : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BadScene, IsRefusedAtTheAnnouncedLine) {
+  const std::string file = GetParam();
+  const Expectation expected = readExpectation(file);
+  ASSERT_GT(expected.line, 0) << file << ": first line must be '# expect: <line>: <message part>'";
+  ASSERT_FALSE(expected.text.empty()) << file << ": the expected message part is empty";
+  const auto lines = loadErrors(file);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_TRUE(reported(lines, file, expected.line, expected.text))
+      << "expected a line '" << file << ":" << expected.line << ": ..." << expected.text << "...'; got:"
+      << joined(lines);
+  // Every line names the file and a line number.
+  for (const auto& l : lines) EXPECT_EQ(l.rfind(file + ":", 0), 0u) << l;
+}
+
+std::string sceneTestName(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = fs::path(info.param).stem().string();
+  for (auto& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, BadScene, ::testing::ValuesIn(badSceneFiles()), sceneTestName);
+
+TEST(BadSceneCollection, HasAtLeast24Scenes) {
+  const auto files = badSceneFiles();
+  EXPECT_GE(files.size(), 24u) << "in " << badSceneDir();
+  for (const auto& f : files) EXPECT_GT(readExpectation(f).line, 0) << f << " has no '# expect:' first line";
+}
+
+// A stated line must exist in the file (or be line 1 of an empty document),
+// so a typo in an expectation cannot pass by pointing past the end.
+TEST(BadSceneCollection, ExpectedLinesExistInTheirFiles) {
+  for (const auto& f : badSceneFiles()) {
+    const auto text = readText(f);
+    const auto lineCount = static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+    EXPECT_LE(readExpectation(f).line, lineCount) << f;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Good scenes load with the values they state.
+
+TEST(GoodScene, DemoLoads) {
+  const Scene scene = loadScene(demoScene().string());
+  EXPECT_EQ(scene.name, "two-mocks");
+  EXPECT_FALSE(scene.description.empty());
+  ASSERT_EQ(scene.solvers.size(), 2u);
+  for (const auto& s : scene.solvers) {
+    EXPECT_EQ(s.kind, "mock");
+    EXPECT_EQ(s.launch, SolverSpec::Launch::spawn);
+    EXPECT_EQ(fs::path(s.binary).filename(), "mock_solver") << s.binary;
+    EXPECT_EQ(::access(s.binary.c_str(), X_OK), 0) << s.binary;
+  }
+  EXPECT_EQ(scene.solvers[0].name, "left");
+  // SolverSpec::line is the line of the entry's first key.
+  const auto text = readText(demoScene());
+  const auto entry = text.find("- name: left");
+  ASSERT_NE(entry, std::string::npos);
+  EXPECT_EQ(scene.solvers[0].line, 1 + std::count(text.begin(), text.begin() + static_cast<long>(entry), '\n'));
+  EXPECT_EQ(scene.solvers[1].name, "right");
+  ASSERT_EQ(scene.couplings.size(), 2u);
+  EXPECT_EQ(scene.couplings[0]->name(), "left-to-right");
+  EXPECT_EQ(scene.couplings[0]->kind(), "direct-transfer");
+  EXPECT_EQ(scene.couplings[0]->participants(), (std::vector<std::string>{"left", "right"}));
+  ASSERT_TRUE(scene.schedule);
+  EXPECT_EQ(scene.schedule->kind(), "lockstep");
+  EXPECT_EQ(scene.schedule->exchanges(), 1000u);  // end_time 1.0 / dt 1e-3
+  EXPECT_EQ(scene.transport.kind, cosim::wire::TransportOptions::Kind::ipc);
+  EXPECT_DOUBLE_EQ(scene.link.heartbeatIntervalS, 0.5);
+  EXPECT_DOUBLE_EQ(scene.link.heartbeatTimeoutS, 10.0);
+  EXPECT_EQ(scene.output.dir, "runs/two-mocks");
+  ASSERT_EQ(scene.output.record.size(), 4u);
+  EXPECT_EQ(scene.output.record[1].solver, "left");
+  EXPECT_EQ(scene.output.record[1].array, "mismatches");
+  const auto caps = scene.requiredCapabilities("left");
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "arrays"), caps.end());
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "advance"), caps.end());
+}
+
+TEST(GoodScene, TcpTransportWithAllTimeouts) {
+  TempDir dir;
+  const auto path = dir.write("tcp.yaml",
+                              "scene: tcp-run\n"
+                              "transport:\n"
+                              "  kind: tcp\n"
+                              "  interface: 0.0.0.0\n"
+                              "  port: 5555\n"
+                              "  heartbeat_interval: 0.2\n"
+                              "  heartbeat_timeout: 1.0\n"
+                              "  request_timeout: 60\n"
+                              "  connect_timeout: 5\n"
+                              "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                              "solvers:\n"
+                              "  - {name: left, kind: mock, args: [--verbose], requires: [checkpoint]}\n"
+                              "  - {name: right, kind: mock, launch: attach}\n");
+  const Scene scene = loadScene(path);
+  EXPECT_EQ(scene.transport.kind, cosim::wire::TransportOptions::Kind::tcp);
+  EXPECT_EQ(scene.transport.interface, "0.0.0.0");
+  EXPECT_EQ(scene.transport.port, 5555);
+  EXPECT_DOUBLE_EQ(scene.link.heartbeatIntervalS, 0.2);
+  EXPECT_DOUBLE_EQ(scene.link.heartbeatTimeoutS, 1.0);
+  EXPECT_DOUBLE_EQ(scene.link.requestTimeoutS, 60.0);
+  EXPECT_DOUBLE_EQ(scene.connectTimeoutS, 5.0);
+  ASSERT_EQ(scene.solvers.size(), 2u);
+  EXPECT_EQ(scene.solvers[0].args, std::vector<std::string>{"--verbose"});
+  const auto caps = scene.requiredCapabilities("left");
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "checkpoint"), caps.end());
+  EXPECT_EQ(scene.solvers[1].launch, SolverSpec::Launch::attach);
+  EXPECT_TRUE(scene.couplings.empty());
+  EXPECT_EQ(scene.output.dir, "runs/tcp-run");
+  EXPECT_EQ(scene.schedule->exchanges(), 10u);
+}
+
+TEST(GoodScene, AutoTimeStepResolvesFromTheCriticalStep) {
+  TempDir dir;
+  const auto path = dir.write("auto.yaml",
+                              "scene: auto-dt\n"
+                              "schedule:\n"
+                              "  kind: lockstep\n"
+                              "  dt: auto\n"
+                              "  safety: 0.4\n"
+                              "  end_time: 0.1\n"
+                              "solvers:\n"
+                              "  - {name: left, kind: mock}\n"
+                              "  - {name: right, kind: mock}\n");
+  const Scene scene = loadScene(path);
+  EXPECT_NE(scene.schedule->describe().find("auto"), std::string::npos) << scene.schedule->describe();
+  // 0.4 * min(1e-3, 5e-3) = 4e-4 s; 0.1 s / 4e-4 s = 250 exchanges. 0 = no limit.
+  scene.schedule->resolveTimeStep({{"left", 1e-3}, {"right", 5e-3}, {"other", 0.0}}, false);
+  EXPECT_EQ(scene.schedule->exchanges(), 250u);
+  EXPECT_NEAR(scene.schedule->endTime(), 0.1, 1e-12);
+}
+
+TEST(GoodScene, FixedExchangeCountInsteadOfEndTime) {
+  TempDir dir;
+  const auto path = dir.write("exchanges.yaml",
+                              "scene: counted\n"
+                              "schedule:\n"
+                              "  kind: lockstep\n"
+                              "  dt: 1.0e-3\n"
+                              "  steps_per_exchange: 4\n"
+                              "  exchanges: 25\n"
+                              "solvers:\n"
+                              "  - {name: left, kind: mock}\n"
+                              "  - {name: right, kind: mock}\n"
+                              "couplings:\n"
+                              "  - {kind: direct-transfer, from: left, to: right, arrays: [state]}\n"
+                              "output: {dir: out/counted, flush_interval: 5, record: [right.state]}\n");
+  const Scene scene = loadScene(path);
+  EXPECT_EQ(scene.schedule->exchanges(), 25u);
+  EXPECT_NEAR(scene.schedule->endTime(), 0.1, 1e-12);  // 25 * 4 * 1e-3
+  ASSERT_EQ(scene.couplings.size(), 1u);
+  EXPECT_EQ(scene.couplings[0]->name(), "coupling0");  // default name
+  EXPECT_EQ(scene.output.dir, "out/counted");
+  EXPECT_EQ(scene.output.flushInterval, 5);
+}
+
+TEST(GoodScene, BinaryPathIsResolvedNextToTheScene) {
+  TempDir dir;
+  dir.write("my_solver", "#!/bin/sh\nexit 0\n");
+  fs::permissions(dir.path() / "my_solver", fs::perms::owner_all);
+  const auto path = dir.write("custom.yaml",
+                              "scene: custom\n"
+                              "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                              "solvers:\n"
+                              "  - {name: grains, kind: lammps, binary: ./my_solver}\n");
+  const Scene scene = loadScene(path);
+  ASSERT_EQ(scene.solvers.size(), 1u);
+  EXPECT_EQ(fs::path(scene.solvers[0].binary), (dir.path() / "my_solver").lexically_normal());
+}
+
+// ---------------------------------------------------------------------------
+// All mistakes in one file are reported together, each at its own line.
+
+TEST(SceneErrors, SeveralMistakesAreAllReported) {
+  TempDir dir;
+  const auto path = dir.write("many.yaml",
+                              "scene: many-mistakes\n"       // 1
+                              "transport:\n"                 // 2
+                              "  kind: ipc\n"                // 3
+                              "  port: 5555\n"               // 4  port with ipc
+                              "schedule:\n"                  // 5
+                              "  kind: lockstep\n"           // 6
+                              "  dt: -1\n"                   // 7  negative
+                              "  end_time: 0.01\n"           // 8
+                              "solvers:\n"                   // 9
+                              "  - name: left\n"             // 10
+                              "    kind: mock\n"             // 11
+                              "    parms: {}\n"              // 12 unknown key
+                              "  - name: right\n"            // 13
+                              "    kind: mock\n"             // 14
+                              "couplings:\n"                 // 15
+                              "  - kind: direct-transfer\n"  // 16
+                              "    from: left\n"             // 17
+                              "    to: left\n"               // 18 same solver
+                              "    arrays: [state]\n"        // 19
+                              "output:\n"                    // 20
+                              "  record: [nobody.x]\n"       // 21 undeclared
+                              "colour: blue\n");             // 22 unknown top-level key
+  const auto lines = loadErrors(path);
+  EXPECT_EQ(lines.size(), 6u) << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 4, "transport.port: only a tcp transport has a port")) << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 7, "schedule.dt: must be > 0 (got -1)")) << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 12, "solvers[0].parms: unknown key (did you mean 'params'?)")) << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 18, "couplings[0].to: a transfer needs two different solvers")) << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 21, "output.record: 'nobody.x' names no declared solver 'nobody'"))
+      << joined(lines);
+  EXPECT_TRUE(reported(lines, path, 22, "colour: unknown key")) << joined(lines);
+}
+
+TEST(SceneErrors, WhatJoinsAllLines) {
+  TempDir dir;
+  const auto path = dir.write("two.yaml",
+                              "scene: two-mistakes\n"
+                              "schedule: {kind: lockstep, dt: 0, exchanges: 0}\n"
+                              "solvers: [{name: left, kind: mock}]\n");
+  try {
+    loadScene(path);
+    FAIL() << "loaded";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.lines().size(), 2u) << e.what();
+    EXPECT_EQ(std::string(e.what()), e.lines()[0] + "\n" + e.lines()[1]);
+  }
+}
+
+TEST(SceneErrors, MissingFileIsAConfigError) {
+  const std::string path = "/nonexistent/dir/scene.yaml";
+  try {
+    loadScene(path);
+    FAIL() << "loaded";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ": cannot open the scene file"), std::string::npos) << e.what();
+  }
+}
+
+// ---------------------------------------------------------------------------
+// `coupler check`: the real binary, its exit code and its output.
+
+struct ProcessResult {
+  int exitCode = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs argv in cwd with stdout and stderr captured to files; waits for it.
+ProcessResult runProcess(const std::vector<std::string>& argv, const fs::path& cwd) {
+  TempDir capture;
+  const auto outPath = (capture.path() / "stdout").string();
+  const auto errPath = (capture.path() / "stderr").string();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("fork failed");
+  if (pid == 0) {
+    const int out = ::open(outPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (out < 0 || err < 0 || ::dup2(out, 1) < 0 || ::dup2(err, 2) < 0 || ::chdir(cwd.c_str()) != 0) ::_exit(126);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ProcessResult r;
+  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = readText(outPath);
+  r.err = readText(errPath);
+  return r;
+}
+
+std::string couplerBinary() { return (binDir() / "coupler").string(); }
+
+class CouplerCheck : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::access(couplerBinary().c_str(), X_OK) != 0) GTEST_FAIL() << "no coupler binary at " << couplerBinary();
+  }
+  TempDir cwd_;
+};
+
+TEST_F(CouplerCheck, BadSceneExitsTwoWithTheMessageOnStderr) {
+  for (const char* name : {"17_negative_dt.yaml", "01_yaml_syntax_error.yaml", "32_dangling_coupling_solver.yaml"}) {
+    const auto scene = (badSceneDir() / name).string();
+    const auto expected = readExpectation(scene);
+    const auto r = runProcess({couplerBinary(), "check", scene}, cwd_.path());
+    EXPECT_EQ(r.exitCode, cosim::coupler::kExitBadConfig) << name << "\nstderr: " << r.err;
+    const std::string where = scene + ":" + std::to_string(expected.line) + ": ";
+    EXPECT_NE(r.err.find(where), std::string::npos) << name << "\nstderr: " << r.err;
+    EXPECT_NE(r.err.find(expected.text), std::string::npos) << name << "\nstderr: " << r.err;
+    EXPECT_EQ(r.out, "") << name;
+  }
+  EXPECT_TRUE(fs::is_empty(cwd_.path())) << "check wrote into its working directory";
+}
+
+TEST_F(CouplerCheck, DemoSceneExitsZeroAndListsTheProcesses) {
+  const auto r = runProcess({couplerBinary(), "check", demoScene().string()}, cwd_.path());
+  EXPECT_EQ(r.exitCode, cosim::coupler::kExitOk) << "stderr: " << r.err;
+  EXPECT_NE(r.out.find("scene 'two-mocks'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("schedule: lockstep"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("mock_solver --endpoint <endpoint> --name left"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("mock_solver --endpoint <endpoint> --name right"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("left-to-right [direct-transfer] left -> right"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("right-to-left [direct-transfer] right -> left"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("error"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_empty(cwd_.path())) << "check created output (e.g. runs/two-mocks)";
+}
+
+TEST_F(CouplerCheck, StartsNoSolverProcess) {
+  // A solver binary that leaves a mark when it is run: check must not run it.
+  TempDir sceneDir;
+  sceneDir.write("spy_solver", "#!/bin/sh\ntouch \"$(dirname \"$0\")/started\"\n");
+  fs::permissions(sceneDir.path() / "spy_solver", fs::perms::owner_all);
+  const auto scene = sceneDir.write("spy.yaml",
+                                    "scene: spy\n"
+                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                    "solvers:\n"
+                                    "  - {name: left, kind: mock, binary: ./spy_solver, args: [--flag]}\n"
+                                    "  - {name: right, kind: mock, binary: ./spy_solver}\n"
+                                    "couplings:\n"
+                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [x]}\n");
+  const auto r = runProcess({couplerBinary(), "check", scene}, cwd_.path());
+  EXPECT_EQ(r.exitCode, cosim::coupler::kExitOk) << "stderr: " << r.err;
+  const auto spy = (sceneDir.path() / "spy_solver").lexically_normal().string();
+  EXPECT_NE(r.out.find("start " + spy + " --endpoint <endpoint> --name left --flag"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("start " + spy + " --endpoint <endpoint> --name right"), std::string::npos) << r.out;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // a stray child would have run by now
+  EXPECT_FALSE(fs::exists(sceneDir.path() / "started")) << "coupler check started a solver";
+  EXPECT_TRUE(fs::is_empty(cwd_.path()));
+}
+
+TEST_F(CouplerCheck, UsageErrorsExitTwo) {
+  const auto noScene = runProcess({couplerBinary(), "check"}, cwd_.path());
+  EXPECT_EQ(noScene.exitCode, cosim::coupler::kExitBadConfig);
+  EXPECT_NE(noScene.err.find("no scene file given"), std::string::npos) << noScene.err;
+  const auto badCommand = runProcess({couplerBinary(), "frobnicate", demoScene().string()}, cwd_.path());
+  EXPECT_EQ(badCommand.exitCode, cosim::coupler::kExitBadConfig);
+  EXPECT_NE(badCommand.err.find("unknown command 'frobnicate'"), std::string::npos) << badCommand.err;
+  const auto missing = runProcess({couplerBinary(), "check", "no_such_scene.yaml"}, cwd_.path());
+  EXPECT_EQ(missing.exitCode, cosim::coupler::kExitBadConfig);
+  EXPECT_NE(missing.err.find("no_such_scene.yaml: cannot open the scene file"), std::string::npos) << missing.err;
+}
+
+}  // namespace
