@@ -7,6 +7,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/run/coupler_run.hpp"
 #include "cosim/wire/log.hpp"
+#include "cosim/wire/message.hpp"
 
 namespace cosim::coupler {
 namespace {
@@ -36,6 +37,7 @@ int usageError(const std::string& message) {
 }  // namespace
 
 int couplerMain(int argc, char** argv) {
+  wire::keepLargeBuffersOnHeap();
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty()) return usageError("no command given");
   if (args[0] == "--help" || args[0] == "-h" || args[0] == "help") {

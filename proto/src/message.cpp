@@ -1,6 +1,7 @@
 #include "cosim/wire/message.hpp"
 
 #include <kj/exception.h>
+#include <malloc.h>
 
 #include <cstring>
 
@@ -102,6 +103,11 @@ InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
     throw MalformedMessage(std::string("not a valid Envelope: ") + e.getDescription().cStr());
   }
   return in;
+}
+
+void keepLargeBuffersOnHeap() {
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
 }
 
 std::string bodyName(proto::Envelope::Reader env) {

@@ -314,6 +314,7 @@ void usage(const char* argv0) {
 
 int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver>()>& factory) {
   std::signal(SIGPIPE, SIG_IGN);
+  keepLargeBuffersOnHeap();
   HostOptions options;
   try {
     for (int i = 1; i < argc; ++i) {
