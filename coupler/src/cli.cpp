@@ -13,7 +13,7 @@ namespace cosim::coupler {
 namespace {
 
 constexpr const char* kUsage =
-    "usage: coupler run SCENE.yaml [--out DIR] [--force] [--no-progress] [--log-level LEVEL]\n"
+    "usage: coupler run SCENE.yaml [--out DIR] [--resume] [--force] [--no-progress] [--log-level LEVEL]\n"
     "       coupler check SCENE.yaml\n"
     "\n"
     "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
@@ -21,6 +21,8 @@ constexpr const char* kUsage =
     "  check  validate the scene and print the coupling graph and the processes it would\n"
     "         start; starts nothing\n"
     "\n"
+    "  --resume       continue the run in DIR from its last complete checkpoint\n"
+    "                 (output.checkpoint_interval); the scene must be unchanged\n"
     "  --force        run even if dt exceeds a solver's critical time step\n"
     "  --no-progress  no progress line on stderr\n"
     "  --log-level    debug, info, warn, error or quiet\n"
@@ -57,6 +59,7 @@ int couplerMain(int argc, char** argv) {
     try {
       if (a == "--out") options.outDir = value();
       else if (a == "--force") options.force = true;
+      else if (a == "--resume") options.resume = true;
       else if (a == "--no-progress") options.progress = false;
       else if (a == "--log-level") log::setLevel(log::parseLevel(value()));
       else if (!a.empty() && a[0] == '-') return usageError("unknown option '" + a + "'");

@@ -36,6 +36,12 @@ H5File H5File::openReadOnly(const std::filesystem::path& path) {
   return H5File(check(f, path, "cannot open the file (missing or not HDF5)"), path);
 }
 
+H5File H5File::openForAppend(const std::filesystem::path& path) {
+  quietErrors();
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  return H5File(check(f, path, "cannot open the file for writing (missing or not HDF5)"), path);
+}
+
 H5File::H5File(H5File&& o) noexcept : file_(o.file_), path_(std::move(o.path_)), groups_(std::move(o.groups_)) {
   o.file_ = -1;
   o.groups_.clear();
@@ -248,6 +254,36 @@ void SeriesWriter::flush() {
 void SeriesWriter::setUnits(const std::string& name, const std::string& units) {
   if (datasets_.count(name)) file_.setAttribute(group_ + "/" + name, "units", units);
   else pendingUnits_[name] = units;
+}
+
+namespace {
+herr_t collectDatasets(hid_t group, const char* name, const H5L_info_t*, void* out) {
+  H5O_info_t info;
+  if (H5Oget_info_by_name(group, name, &info, H5P_DEFAULT) >= 0 && info.type == H5O_TYPE_DATASET)
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+  return 0;
+}
+}  // namespace
+
+void SeriesWriter::resumeAt(std::size_t rows) {
+  std::vector<std::string> names;
+  H5Lvisit(file_.group(group_), H5_INDEX_NAME, H5_ITER_INC, collectDatasets, &names);
+  for (const auto& name : names) {
+    if (datasets_.count(name)) continue;
+    const std::string full = group_ + "/" + name;
+    const hid_t d = check(H5Dopen2(file_.id(), full.c_str(), H5P_DEFAULT), file_.path(), "cannot open " + full);
+    const hid_t space = H5Dget_space(d);
+    hsize_t dims[2] = {0, 1};
+    const int rank = H5Sget_simple_extent_dims(space, dims, nullptr);
+    H5Sclose(space);
+    const std::size_t cols = rank == 2 ? dims[1] : 1;
+    const hsize_t cut[2] = {std::min<hsize_t>(dims[0], rows), cols};
+    if (H5Dset_extent(d, cut) < 0) fail(file_.path(), "cannot cut " + full + " back to " + std::to_string(rows) + " rows");
+    auto& ds = datasets_[name];
+    ds.id = d;
+    ds.cols = cols;
+    ds.rows = cut[0];
+  }
 }
 
 std::size_t SeriesWriter::rows(const std::string& name) const {

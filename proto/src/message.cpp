@@ -3,7 +3,10 @@
 #include <kj/exception.h>
 #include <malloc.h>
 
+#include <capnp/serialize.h>
+
 #include <cstring>
+#include <fstream>
 
 namespace cosim::wire {
 namespace {
@@ -108,6 +111,39 @@ InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
 void keepLargeBuffersOnHeap() {
   mallopt(M_MMAP_THRESHOLD, 256 * 1024 * 1024);
   mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+}
+
+void InMessage::save(const std::string& path) const {
+  capnp::MallocMessageBuilder copy(static_cast<unsigned>(bytes_ / sizeof(capnp::word) + 64));
+  copy.setRoot(root_);
+  const auto flat = capnp::messageToFlatArray(copy);
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(flat.begin()), static_cast<std::streamsize>(flat.asBytes().size()));
+  if (!out) throw std::runtime_error(path + ": cannot write the message");
+}
+
+InMessage InMessage::load(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) throw MalformedMessage(path + ": cannot open");
+  const auto size = static_cast<std::size_t>(in.tellg());
+  if (size == 0 || size % sizeof(capnp::word) != 0)
+    throw MalformedMessage(path + ": " + std::to_string(size) + " bytes is not a Cap'n Proto message");
+  InMessage m;
+  m.fileWords_ = kj::heapArray<capnp::word>(size / sizeof(capnp::word));
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(m.fileWords_.begin()), static_cast<std::streamsize>(size));
+  m.bytes_ = size;
+  capnp::ReaderOptions options;
+  options.traversalLimitInWords =
+      std::max<std::uint64_t>(options.traversalLimitInWords, size / sizeof(capnp::word) * kTraversalFactor);
+  try {
+    m.reader_ = std::make_unique<capnp::FlatArrayMessageReader>(m.fileWords_.asPtr(), options);
+    m.root_ = m.reader_->getRoot<proto::Envelope>();
+    (void)m.root_.totalSize();
+  } catch (const kj::Exception& e) {
+    throw MalformedMessage(path + ": not a valid Envelope: " + e.getDescription().cStr());
+  }
+  return m;
 }
 
 std::string bodyName(proto::Envelope::Reader env) {

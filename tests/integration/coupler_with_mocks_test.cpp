@@ -8,6 +8,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -30,6 +31,7 @@ struct SceneOptions {
   std::string rightExtra;
   std::string schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 100}";
   std::string transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 30}";
+  std::string outputExtra;  // more keys under output:, e.g. "checkpoint_interval: 50"
 };
 
 class CouplerRun : public ::testing::Test {
@@ -55,7 +57,8 @@ class CouplerRun : public ::testing::Test {
       << "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n"
       << "  - {name: r2l, kind: direct-transfer, from: right, to: left, arrays: [state]}\n"
       << "output:\n  dir: " << (dir_ / "run").string() << "\n"
-      << "  record: [left.digest, left.mismatches, right.digest, right.mismatches]\n";
+      << "  record: [left.digest, left.mismatches, right.digest, right.mismatches]\n"
+      << (o.outputExtra.empty() ? "" : "  " + o.outputExtra + "\n");
     return path.string();
   }
 
@@ -336,6 +339,53 @@ TEST_F(CouplerRun, SolverLeavesWhenTheCouplerFallsSilent) {
   ASSERT_TRUE(router.send("lonely", welcome));
   EXPECT_EQ(solver.wait(10), 4) << solver.err();
   EXPECT_NE(solver.err().find("the coupler went away"), std::string::npos) << solver.err();
+}
+
+TEST_F(CouplerRun, ResumedRunContinuesBitForBit) {
+  SceneOptions o;
+  o.left = "{seed: 3, length: 256, expect_seed: 4, compute_seconds: 0.002}";
+  o.right = "{seed: 4, length: 256, expect_seed: 3}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 300}";
+  o.outputExtra = "checkpoint_interval: 50";
+  const auto scene = writeScene(o);
+  const auto whole = dir_ / "whole";
+  const auto cut = dir_ / "cut";
+  auto f = run({binary("coupler"), "run", scene, "--out", whole.string(), "--no-progress"}, 60);
+  ASSERT_EQ(f.code, 0) << f.err;
+  {
+    Subprocess victim({binary("coupler"), "run", scene, "--out", cut.string(), "--no-progress"});
+    for (int i = 0; i < 1000 && !fs::exists(cut / "checkpoints" / "exchange-150"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_TRUE(fs::exists(cut / "checkpoints" / "exchange-150"));
+    victim.signal(SIGKILL);  // no chance to clean up: the solvers die with it
+    victim.wait(10);
+  }
+  for (int i = 0; i < 100 && !processesMentioning(cut.string()).empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  f = run({binary("coupler"), "run", scene, "--out", cut.string(), "--resume", "--no-progress"}, 60);
+  ASSERT_EQ(f.code, 0) << f.err;
+  EXPECT_NE(f.err.find("resuming from exchange"), std::string::npos) << f.err;
+  auto a = io::H5File::openReadOnly(whole / "coupler.h5");
+  auto b = io::H5File::openReadOnly(cut / "coupler.h5");
+  for (const std::string series : {"time", "exchange", "left/digest", "right/digest", "left/mismatches",
+                                   "right/energy/kinetic"}) {
+    const auto x = a.readArray("/series/" + series);
+    const auto y = b.readArray("/series/" + series);
+    ASSERT_EQ(x.size(), y.size()) << series;
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(double))) << series;
+  }
+  EXPECT_EQ(a.readArray("/series/time").size(), 301u);
+}
+
+TEST_F(CouplerRun, ResumeRefusesAChangedScene) {
+  SceneOptions o;
+  o.outputExtra = "checkpoint_interval: 10";
+  auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  o.right = "{seed: 9, length: 64}";
+  f = runCoupler(o, {"--resume"});
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("differs from the scene the run"), std::string::npos) << f.err;
 }
 
 }  // namespace

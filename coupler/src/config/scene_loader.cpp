@@ -166,6 +166,7 @@ void readOutput(MapReader& root, Scene& scene) {
   if (!m.valid()) return;
   scene.output.dir = m.string("dir", scene.output.dir);
   scene.output.flushInterval = m.integer("flush_interval", 100, 1, 1000000000);
+  scene.output.checkpointInterval = m.integer("checkpoint_interval", 0, 0, 1000000000);
   for (const auto& item : m.stringList("record")) {
     const auto dot = item.find('.');
     if (dot == std::string::npos || dot == 0 || dot + 1 == item.size()) {
@@ -208,6 +209,7 @@ const SolverSpec* Scene::solver(const std::string& n) const {
 
 std::vector<std::string> Scene::requiredCapabilities(const std::string& solverName) const {
   std::set<std::string> caps{"setup", "advance"};
+  if (output.checkpointInterval > 0) caps.insert({"checkpoint", "restore"});
   for (const auto& c : couplings) {
     const auto parts = c->participants();
     if (std::find(parts.begin(), parts.end(), solverName) != parts.end())

@@ -11,6 +11,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/launch/process_group.hpp"
+#include "cosim/coupler/run/checkpoint_store.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/clock.hpp"
@@ -47,7 +48,7 @@ class CouplerRun final : public ExchangeDriver {
  public:
   CouplerRun(const Scene& scene, const RunOptions& options)
       : scene_(scene), options_(options), runDir_(options.outDir.empty() ? scene.output.dir : options.outDir),
-        progress_(options.progress) {
+        progress_(options.progress), checkpoints_(runDir_) {
     for (const auto& s : scene.solvers) names_.push_back(s.name);
     report_.scene = scene.name;
     report_.sceneFile = scene.file;
@@ -88,6 +89,7 @@ class CouplerRun final : public ExchangeDriver {
   // ExchangeDriver
   const std::vector<std::string>& solverNames() const override { return names_; }
   double time() const override { return time_; }
+  std::uint64_t completedExchanges() const override { return completed_; }
 
   void exchange(const std::map<std::string, AdvancePlan>& plans, double newTime) override {
     checkInterrupt();
@@ -116,6 +118,9 @@ class CouplerRun final : public ExchangeDriver {
     runCouplings();
     record();
     completed_ = exchange_;
+    if (scene_.output.checkpointInterval > 0 &&
+        exchange_ % static_cast<std::uint64_t>(scene_.output.checkpointInterval) == 0)
+      checkpoint();
     progress_.update(time_, scene_.schedule->endTime(), exchange_, scene_.schedule->exchanges());
   }
 
@@ -126,6 +131,7 @@ class CouplerRun final : public ExchangeDriver {
   }
 
   void prepareOutput() {
+    if (options_.resume) return prepareResume();
     fs::create_directories(runDir_);
     h5_.emplace(io::H5File::create(runDir_ / "coupler.h5"));
     h5_->setAttribute("/", "scene", scene_.name);
@@ -135,6 +141,61 @@ class CouplerRun final : public ExchangeDriver {
     series_.emplace(*h5_, "/series");
     series_->setUnits("time", "s");
     series_->flush();
+  }
+
+  void prepareResume() {
+    resumeFrom_ = checkpoints_.latest();
+    if (!resumeFrom_)
+      throw Refused("nothing to resume in " + runDir_.string() + ": no complete checkpoint (set output.checkpoint_interval)");
+    if (CheckpointStore::sceneText(*resumeFrom_) != scene_.text)
+      throw Refused("cannot resume: " + scene_.file + " differs from the scene the run in " + runDir_.string() +
+                    " was started with (saved in " + resumeFrom_->dir.string() + ")");
+    h5_.emplace(io::H5File::openForAppend(runDir_ / "coupler.h5"));
+    series_.emplace(*h5_, "/series");
+    series_->resumeAt(resumeFrom_->exchange + 1);  // the setup row and the exchanges before the checkpoint
+    log::info("resuming from exchange " + std::to_string(resumeFrom_->exchange) + " (t = " +
+              std::to_string(resumeFrom_->time) + " s)");
+  }
+
+  void checkpoint() {
+    const auto dir = checkpoints_.begin(exchange_);
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto& s : scene_.solvers) {
+      wire::OutMessage m;
+      m.envelope().getBody().initCheckpoint().setPath(fs::absolute(CheckpointStore::solverCheckpoint(dir, s.name)).string());
+      pending.emplace_back(s.name, session_->request(s.name, m));
+    }
+    session_->awaitReplies(pending);
+    for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
+    series_->flush();
+    checkpoints_.commit(exchange_, time_, scene_.text);
+  }
+
+  /// After setup: every solver restores its checkpoint; the couplings restage
+  /// the inputs from the replies the checkpoint kept.
+  void restoreFromCheckpoint() {
+    const auto& point = *resumeFrom_;
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto& s : scene_.solvers) {
+      wire::OutMessage m;
+      m.envelope().getBody().initRestore().setPath(fs::absolute(CheckpointStore::solverCheckpoint(point.dir, s.name)).string());
+      pending.emplace_back(s.name, session_->request(s.name, m));
+    }
+    auto replies = session_->awaitReplies(pending);
+    for (std::size_t i = 0; i < replies.size(); ++i) {
+      const double t = replies[i].message.envelope().getBody().getRestored().getTime();
+      if (t != point.time)
+        log::warn("solver '" + pending[i].first + "' restored to t = " + std::to_string(t) + " s, the checkpoint is at t = " +
+                  std::to_string(point.time) + " s");
+    }
+    for (const auto& s : scene_.solvers) {
+      latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
+      auto body = latest_.at(s.name).envelope().getBody();
+      outputs_[s.name] = body.isAdvanced() ? body.getAdvanced().getOutputs() : body.getSetupDone().getOutputs();
+    }
+    exchange_ = completed_ = point.exchange;
+    time_ = point.time;
+    runCouplings();
   }
 
   void startPeers() {
@@ -239,6 +300,7 @@ class CouplerRun final : public ExchangeDriver {
       p.criticalDt = critical[s.name];
       timings_[s.name] = p;
     }
+    if (resumeFrom_) return restoreFromCheckpoint();
     runCouplings();
     record();
   }
@@ -340,6 +402,8 @@ class CouplerRun final : public ExchangeDriver {
   std::optional<wire::PeerSession> session_;
   ProcessGroup processes_;
   std::set<std::string> faulty_;
+  CheckpointStore checkpoints_;
+  std::optional<CheckpointStore::Point> resumeFrom_;
   std::map<std::string, wire::InMessage> latest_;
   std::map<std::string, proto::CouplingData::Reader> outputs_;
   std::map<std::string, InputAssembler> inputs_;

@@ -82,7 +82,7 @@ class Lockstep final : public Schedule {
     std::map<std::string, AdvancePlan> plans;
     for (const auto& name : driver.solverNames()) plans[name] = AdvancePlan{stepsPerExchange_, dt_};
     const std::uint64_t n = exchanges();
-    for (std::uint64_t k = 1; k <= n; ++k)
+    for (std::uint64_t k = driver.completedExchanges() + 1; k <= n; ++k)
       driver.exchange(plans, static_cast<double>(k) * dt_ * stepsPerExchange_);
   }
 

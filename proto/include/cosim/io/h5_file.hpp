@@ -19,6 +19,8 @@ class H5File {
   /// Creates (truncates) path for writing.
   static H5File create(const std::filesystem::path& path);
   static H5File openReadOnly(const std::filesystem::path& path);
+  /// Opens an existing file for writing (a resumed run continues its file).
+  static H5File openForAppend(const std::filesystem::path& path);
   H5File(H5File&& other) noexcept;
   H5File& operator=(H5File&& other) noexcept;
   H5File(const H5File&) = delete;
@@ -61,6 +63,9 @@ class SeriesWriter {
   void append(const std::string& name, std::span<const double> row);
   /// Sets a units attribute on a series (created on first append).
   void setUnits(const std::string& name, const std::string& units);
+  /// Adopts every series already under the group, cut to its first `rows`
+  /// rows, so that appends continue a resumed run where its checkpoint was.
+  void resumeAt(std::size_t rows);
   std::size_t rows(const std::string& name) const;
   void flush();
 

@@ -47,11 +47,18 @@ class InMessage {
   /// description of what is wrong; never reads out of bounds.
   static InMessage decode(std::vector<zmq::message_t>&& frames);
 
+  /// Writes the envelope to a file in Cap'n Proto's standard stream format
+  /// (what `capnp decode` reads), e.g. to keep a solver's last reply in a checkpoint.
+  void save(const std::string& path) const;
+  /// Reads a file written by save(); throws MalformedMessage naming the file.
+  static InMessage load(const std::string& path);
+
  private:
   InMessage() = default;
   std::vector<zmq::message_t> frames_;
   std::vector<std::unique_ptr<capnp::word[]>> realigned_;
-  std::unique_ptr<capnp::SegmentArrayMessageReader> reader_;
+  kj::Array<capnp::word> fileWords_;
+  std::unique_ptr<capnp::MessageReader> reader_;
   proto::Envelope::Reader root_;
   std::size_t bytes_ = 0;
 };

@@ -23,6 +23,7 @@ struct RunOptions {
   std::string outDir;     // empty: the scene's output.dir
   bool force = false;     // run even when dt exceeds the critical step
   bool progress = true;
+  bool resume = false;    // continue the run in the output dir from its last complete checkpoint
 };
 
 int runScene(const Scene& scene, const RunOptions& options);

@@ -26,6 +26,8 @@ class ExchangeDriver {
   virtual void exchange(const std::map<std::string, AdvancePlan>& plans, double newTime) = 0;
   virtual const std::vector<std::string>& solverNames() const = 0;
   virtual double time() const = 0;
+  /// Exchanges already done (non-zero when a run resumes from a checkpoint).
+  virtual std::uint64_t completedExchanges() const = 0;
 };
 
 class Schedule {

@@ -1,0 +1,41 @@
+#pragma once
+// The run's checkpoints: checkpoints/exchange-<k>/ holds every solver's own
+// checkpoint file (<solver>.chk), each solver's last reply (<solver>.last.bin,
+// from which the couplings restage the next inputs) and the scene text. The
+// directory becomes visible under its final name only once complete, so a
+// crash while checkpointing never leaves a half checkpoint to resume from.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace cosim::coupler {
+
+class CheckpointStore {
+ public:
+  explicit CheckpointStore(std::filesystem::path runDir, int keep = 2);
+
+  struct Point {
+    std::uint64_t exchange = 0;
+    double time = 0.0;
+    std::filesystem::path dir;
+  };
+
+  /// A fresh directory for the checkpoint at this exchange (not yet visible).
+  std::filesystem::path begin(std::uint64_t exchange);
+  /// Records the coupler's own state, makes the checkpoint visible, drops old ones.
+  Point commit(std::uint64_t exchange, double time, const std::string& sceneText);
+  /// The newest complete checkpoint, if any.
+  std::optional<Point> latest() const;
+  /// The scene text a checkpoint was taken with.
+  static std::string sceneText(const Point& point);
+
+  static std::filesystem::path solverCheckpoint(const std::filesystem::path& dir, const std::string& solver);
+  static std::filesystem::path solverLastReply(const std::filesystem::path& dir, const std::string& solver);
+
+ private:
+  std::filesystem::path root_;
+  int keep_;
+};
+
+}  // namespace cosim::coupler
