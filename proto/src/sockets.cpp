@@ -61,9 +61,21 @@ std::vector<zmq::message_t> receiveMultipart(zmq::socket_t& socket) {
   return frames;
 }
 
-RouterSocket::RouterSocket(const std::string& bindEndpoint)
+CurveKeyPair CurveKeyPair::generate() {
+  char pub[41] = {};
+  char sec[41] = {};
+  if (zmq_curve_keypair(pub, sec) != 0)
+    throw std::runtime_error("CurveZMQ is not available in this libzmq build (zmq_curve_keypair failed)");
+  return {pub, sec};
+}
+
+RouterSocket::RouterSocket(const std::string& bindEndpoint, const std::optional<CurveKeyPair>& curve)
     : socket_(context(), zmq::socket_type::router) {
   configure(socket_);
+  if (curve) {
+    socket_.set(zmq::sockopt::curve_server, 1);
+    socket_.set(zmq::sockopt::curve_secretkey, curve->secretKey);
+  }
   socket_.set(zmq::sockopt::router_mandatory, 1);
   socket_.bind(bindEndpoint);
   endpoint_ = socket_.get(zmq::sockopt::last_endpoint);
@@ -90,9 +102,19 @@ std::optional<Received> RouterSocket::receive(std::chrono::milliseconds timeout)
   return decodeFrames(std::move(frames), std::move(identity));
 }
 
-DealerSocket::DealerSocket(const std::string& connectEndpoint, const std::string& identity)
+DealerSocket::DealerSocket(const std::string& connectEndpoint, const std::string& identity,
+                           const std::string& serverPublicKey)
     : socket_(context(), zmq::socket_type::dealer) {
   configure(socket_);
+  if (!serverPublicKey.empty()) {
+    if (serverPublicKey.size() != 40)
+      throw std::invalid_argument("a CurveZMQ server key is 40 Z85 characters, got " +
+                                  std::to_string(serverPublicKey.size()));
+    const auto mine = CurveKeyPair::generate();  // this connection's own key pair
+    socket_.set(zmq::sockopt::curve_serverkey, serverPublicKey);
+    socket_.set(zmq::sockopt::curve_publickey, mine.publicKey);
+    socket_.set(zmq::sockopt::curve_secretkey, mine.secretKey);
+  }
   socket_.set(zmq::sockopt::routing_id, identity);
   socket_.connect(connectEndpoint);
 }

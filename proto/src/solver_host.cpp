@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <csignal>
+#include <fstream>
 #include <cstdlib>
 #include <iostream>
 #include <thread>
@@ -54,7 +55,7 @@ struct SolverHost::Impl {
   bool setUp = false;
 
   Impl(Solver& s, HostOptions o)
-      : solver(s), options(std::move(o)), data(options.endpoint, options.instance) {}
+      : solver(s), options(std::move(o)), data(options.endpoint, options.instance, options.serverKey) {}
 
   ~Impl() {
     stopping = true;
@@ -127,7 +128,7 @@ struct SolverHost::Impl {
   }
 
   void heartbeatLoop() {
-    DealerSocket hb(options.endpoint, options.instance + "#hb");
+    DealerSocket hb(options.endpoint, options.instance + "#hb", options.serverKey);
     double nextBeat = 0.0;
     double lostAt = 0.0;
     std::uint64_t seq = 0;
@@ -301,9 +302,17 @@ SolverHost::~SolverHost() = default;
 int SolverHost::run() { return impl_->run(); }
 
 namespace {
+std::string readKeyFile(const std::string& path) {
+  std::ifstream in(path);
+  std::string key;
+  if (!(in >> key)) throw std::invalid_argument("cannot read a server key from '" + path + "'");
+  return key;
+}
+
 void usage(const char* argv0) {
   std::cerr << "usage: " << argv0
-            << " --endpoint ENDPOINT --name INSTANCE [--connect-timeout SECONDS] [--log-level LEVEL]\n"
+            << " --endpoint ENDPOINT --name INSTANCE [--connect-timeout SECONDS] [--server-key-file FILE]\n"
+               "       [--log-level LEVEL]\n"
                "       "
             << argv0
             << " --version | --capabilities\n"
@@ -326,6 +335,7 @@ int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver
       if (arg == "--endpoint") options.endpoint = value();
       else if (arg == "--name") options.instance = value();
       else if (arg == "--connect-timeout") options.connectTimeoutS = std::stod(value());
+      else if (arg == "--server-key-file") options.serverKey = readKeyFile(value());
       else if (arg == "--log-level") log::setLevel(log::parseLevel(value()));
       else if (arg == "--version") { std::cout << factory()->info().version << "\n"; return 0; }
       else if (arg == "--capabilities") {
@@ -336,6 +346,7 @@ int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver
     }
     if (options.endpoint.empty() || options.instance.empty())
       throw std::invalid_argument("--endpoint and --name are required");
+    if (const char* key = std::getenv("COSIM_SERVER_KEY"); key && options.serverKey.empty()) options.serverKey = key;
   } catch (const std::exception& e) {
     std::cerr << argv[0] << ": " << e.what() << "\n";
     usage(argv[0]);

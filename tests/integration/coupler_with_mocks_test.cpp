@@ -233,6 +233,18 @@ TEST_F(CouplerRun, TcpTransportOnLoopback) {
   for (double m : h5.readArray("/series/right/mismatches")) EXPECT_EQ(m, 0.0);
 }
 
+TEST_F(CouplerRun, CurveEncryptedTcp) {
+  SceneOptions o;
+  o.transport = "{kind: tcp, curve: true, heartbeat_interval: 0.1, heartbeat_timeout: 1.0}";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const auto key = runDir() / "coupler.pub";
+  ASSERT_TRUE(fs::exists(key));
+  EXPECT_EQ(fs::status(key).permissions() & (fs::perms::group_all | fs::perms::others_all), fs::perms::none);
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  for (double m : h5.readArray("/series/right/mismatches")) EXPECT_EQ(m, 0.0);
+}
+
 TEST_F(CouplerRun, GarbageSentToTheEndpointDoesNotDisturbTheRun) {
   SceneOptions o;
   o.left = "{seed: 1, length: 64, expect_seed: 2, compute_seconds: 0.003}";

@@ -49,6 +49,7 @@ void readTransport(MapReader& m, Scene& scene) {
                                                                         : wire::TransportOptions::Kind::ipc;
   t.interface = m.string("interface", "127.0.0.1");
   t.port = static_cast<int>(m.integer("port", 0, 0, 65535));
+  t.curve = m.boolean("curve", false);
   auto& l = scene.link;
   l.heartbeatIntervalS = m.number("heartbeat_interval", 0.5, Range::positive());
   l.heartbeatTimeoutS = m.number("heartbeat_timeout", 10.0, Range::positive());
@@ -59,6 +60,8 @@ void readTransport(MapReader& m, Scene& scene) {
                                      config::formatNumber(l.heartbeatIntervalS) + " s), or every late beat is a fault");
   if (t.kind == wire::TransportOptions::Kind::ipc && m.has("port"))
     m.error("port", "only a tcp transport has a port");
+  if (t.kind == wire::TransportOptions::Kind::ipc && t.curve)
+    m.error("curve", "applies to tcp only (an ipc socket is private to its 0700 run directory)");
 }
 
 void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::set<std::string>& names) {

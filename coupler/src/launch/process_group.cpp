@@ -42,12 +42,19 @@ int stopSignal() { return g_stopSignal.load(); }
 
 ProcessGroup::~ProcessGroup() { terminateAll(0.0, 2.0); }
 
-pid_t ProcessGroup::spawn(const std::string& name, const std::string& binary, const std::vector<std::string>& args) {
+pid_t ProcessGroup::spawn(const std::string& name, const std::string& binary, const std::vector<std::string>& args,
+                          const std::vector<std::string>& extraEnvironment) {
   std::vector<std::string> argvStore{binary};
   argvStore.insert(argvStore.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : argvStore) argv.push_back(a.data());
   argv.push_back(nullptr);
+  // The environment is assembled before fork: after it, only async-signal-safe calls.
+  std::vector<std::string> envStore(extraEnvironment);
+  for (char** e = environ; *e; ++e) envStore.emplace_back(*e);
+  std::vector<char*> envp;
+  for (auto& e : envStore) envp.push_back(e.data());
+  envp.push_back(nullptr);
   const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) throw std::runtime_error("cannot start '" + name + "' (" + binary + "): fork failed: " + std::strerror(errno));
@@ -58,7 +65,7 @@ pid_t ProcessGroup::spawn(const std::string& name, const std::string& binary, co
     ::setpgid(0, 0);
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
-    ::execv(binary.c_str(), argv.data());
+    ::execve(binary.c_str(), argv.data(), envp.data());
     const char msg[] = "coupler: exec of a solver binary failed\n";
     [[maybe_unused]] auto ignored = ::write(2, msg, sizeof(msg) - 1);
     ::_exit(127);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <optional>
 #include <set>
@@ -200,22 +201,43 @@ class CouplerRun final : public ExchangeDriver {
 
   void startPeers() {
     endpoint_ = wire::bindEndpoint(scene_.transport, runDir_);
-    socket_.emplace(endpoint_);
+    std::optional<wire::CurveKeyPair> curve;
+    std::vector<std::string> environment;
+    if (scene_.transport.curve) {
+      curve = wire::CurveKeyPair::generate();
+      writeServerKey(curve->publicKey);
+      environment.push_back("COSIM_SERVER_KEY=" + curve->publicKey);
+    }
+    socket_.emplace(endpoint_, curve);
     endpoint_ = socket_->endpoint();
     const auto connectTo = wire::connectableEndpoint(endpoint_);
     session_.emplace(*socket_, scene_.link);
     session_->setWatchdog([this] { watchdog(); });
     for (const auto& s : scene_.solvers) {
       if (s.launch == SolverSpec::Launch::spawn) {
-        processes_.spawn(s.name, s.binary, launchArgs(s, connectTo));
+        processes_.spawn(s.name, s.binary, launchArgs(s, connectTo), environment);
       } else {
         log::info("waiting for solver '" + s.name + "' to connect to " + connectTo + " (start it with: " +
-                  (s.binary.empty() ? s.kind + "_solver" : s.binary) + " --endpoint " + connectTo + " --name " + s.name + ")");
+                  (s.binary.empty() ? s.kind + "_solver" : s.binary) + " --endpoint " + connectTo + " --name " + s.name +
+                  (curve ? " --server-key-file " + fs::absolute(serverKeyPath()).string() : std::string()) + ")");
       }
     }
     session_->awaitHellos(names_, scene_.connectTimeoutS);
     checkHellos();
     for (const auto& n : names_) session_->welcome(n);
+  }
+
+  fs::path serverKeyPath() const { return runDir_ / "coupler.pub"; }
+
+  /// The CurveZMQ public key, readable by this user only: whoever holds it can talk to the run.
+  void writeServerKey(const std::string& key) const {
+    const auto path = serverKeyPath();
+    {
+      std::ofstream out(path);
+      out << key << "\n";
+      if (!out) throw std::runtime_error(path.string() + ": cannot write the server key");
+    }
+    fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
   }
 
   void watchdog() {
@@ -442,7 +464,10 @@ void describeScene(const Scene& scene, std::ostream& out) {
     c->describe(out);
     out << "\n";
   }
-  out << "transport: " << (scene.transport.kind == wire::TransportOptions::Kind::tcp ? "tcp on " + scene.transport.interface : "ipc")
+  out << "transport: "
+      << (scene.transport.kind == wire::TransportOptions::Kind::tcp
+              ? "tcp on " + scene.transport.interface + (scene.transport.curve ? " (CurveZMQ)" : "")
+              : "ipc")
       << ", heartbeat " << scene.link.heartbeatIntervalS << " s, timeout " << scene.link.heartbeatTimeoutS << " s\n";
   out << "output: " << scene.output.dir << "/coupler.h5\n";
 }

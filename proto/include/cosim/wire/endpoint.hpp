@@ -10,6 +10,7 @@ struct TransportOptions {
   enum class Kind { ipc, tcp } kind = Kind::ipc;
   std::string interface = "127.0.0.1";  // tcp: address or interface to bind
   int port = 0;                          // tcp: 0 = any free port
+  bool curve = false;                    // tcp: CurveZMQ encryption with a per-run server key
 };
 
 /// The endpoint string the coupler binds. For ipc the socket lives in runDir;

@@ -22,9 +22,18 @@ struct Received {
 /// The one context every socket of a process shares.
 zmq::context_t& context();
 
+/// A CurveZMQ key pair in Z85 text (40 characters each).
+struct CurveKeyPair {
+  std::string publicKey;
+  std::string secretKey;
+  static CurveKeyPair generate();
+};
+
 class RouterSocket {
  public:
-  explicit RouterSocket(const std::string& bindEndpoint);
+  /// With a server key pair, the socket speaks CurveZMQ: traffic is
+  /// encrypted and only peers that know the public key can connect.
+  explicit RouterSocket(const std::string& bindEndpoint, const std::optional<CurveKeyPair>& curve = std::nullopt);
   /// The endpoint actually bound (a tcp wildcard port resolved).
   const std::string& endpoint() const { return endpoint_; }
   /// False when no peer of that identity is connected.
@@ -39,7 +48,9 @@ class RouterSocket {
 
 class DealerSocket {
  public:
-  DealerSocket(const std::string& connectEndpoint, const std::string& identity);
+  /// serverPublicKey (Z85): connect with CurveZMQ to a coupler that uses it.
+  DealerSocket(const std::string& connectEndpoint, const std::string& identity,
+               const std::string& serverPublicKey = {});
   void send(const OutMessage& message);
   std::optional<Received> receive(std::chrono::milliseconds timeout);
   zmq::socket_t& raw() { return socket_; }

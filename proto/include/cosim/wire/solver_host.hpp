@@ -18,6 +18,7 @@ struct HostOptions {
   double connectTimeoutS = 60.0;      // how long to wait for the welcome
   double heartbeatIntervalS = 0.5;    // replaced by the coupler's welcome
   double heartbeatTimeoutS = 10.0;    // replaced by the coupler's welcome
+  std::string serverKey;              // CurveZMQ public key of the coupler (Z85), if it uses one
 };
 
 class SolverHost {
@@ -34,8 +35,11 @@ class SolverHost {
 };
 
 /// A solver binary's whole main(): parses --endpoint, --name,
-/// --connect-timeout, --log-level, answers --version and --capabilities, then
-/// runs a SolverHost around the solver the factory makes.
+/// --connect-timeout, --server-key-file, --log-level, answers --version and
+/// --capabilities, then runs a SolverHost around the solver the factory makes.
+/// The coupler's CurveZMQ public key comes from --server-key-file or the
+/// environment variable COSIM_SERVER_KEY (how the coupler passes it to the
+/// solvers it starts: not visible in `ps`).
 int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver>()>& factory);
 
 }  // namespace cosim::wire

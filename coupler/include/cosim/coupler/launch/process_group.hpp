@@ -19,8 +19,10 @@ class ProcessGroup {
   ProcessGroup& operator=(const ProcessGroup&) = delete;
   ~ProcessGroup();
 
-  /// Starts binary with args; throws std::runtime_error when it cannot.
-  pid_t spawn(const std::string& name, const std::string& binary, const std::vector<std::string>& args);
+  /// Starts binary with args and extra environment entries ("KEY=value");
+  /// throws std::runtime_error when it cannot.
+  pid_t spawn(const std::string& name, const std::string& binary, const std::vector<std::string>& args,
+              const std::vector<std::string>& extraEnvironment = {});
 
   struct Exit {
     std::string name;

@@ -1,0 +1,61 @@
+// Energy conservation of an elastic frictionless gas in a box of plane walls.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "dem_test_util.hpp"
+
+namespace cosim::dem::test {
+namespace {
+
+TEST(DemEnergy, ElasticGasInWallBoxConservesEnergy) {
+  DemSystem s;
+  s.setContactLaw("hertz", "none", "none");
+  Material m = glass();
+  m.young = 1e7;  // soft: many collisions in 1e4 steps
+  s.materials.add(m);
+  const double r = 0.01, spacing = 0.03;
+  const int side = 10;  // 1000 spheres
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> vel(0.0, 1.0);
+  for (int i = 0; i < side; ++i)
+    for (int j = 0; j < side; ++j)
+      for (int k = 0; k < side; ++k) {
+        const std::size_t p = s.particles.add({spacing * (i + 0.5), spacing * (j + 0.5), spacing * (k + 0.5)}, r,
+                                              m.density);
+        s.particles.v[p] = {vel(rng), vel(rng), vel(rng)};
+      }
+  const double box = side * spacing;
+  for (int d = 0; d < 3; ++d)
+    for (int side2 = 0; side2 < 2; ++side2) {
+      PlaneWall w;
+      w.normal = {};
+      w.normal[d] = side2 == 0 ? 1.0 : -1.0;
+      w.point = {};
+      w.point[d] = side2 == 0 ? 0.0 : box;
+      s.planes.push_back(w);
+    }
+  s.neighbors.skin = 0.2 * r;
+  s.initialize();
+  const double mass = s.particles.mass[0];
+  const double tc = hertzContactTime(0.5 * mass, 0.5 * r, m.young / (2 * (1 - m.poisson * m.poisson)), 3.0);
+  const double dt = tc / 50;
+  const double e0 = energies(s).balance();
+  double worst = 0.0;
+  for (int step = 0; step < 10000; ++step) {
+    s.advance(dt);
+    if (step % 100 == 99) worst = std::max(worst, std::fabs(energies(s).balance() - e0) / e0);
+  }
+  const Energies e = energies(s);
+  const double drift = std::fabs(e.balance() - e0) / e0;
+  std::printf("gas: dt=%.3e (t_c/50 at 3 m/s), %llu neighbour builds, coordination %.3f, "
+              "final rel. drift %.3e, worst %.3e\n",
+              dt, static_cast<unsigned long long>(s.neighbors.builds), coordinationNumber(s), drift, worst);
+  EXPECT_LT(drift, 1e-4);
+  EXPECT_LT(worst, 1e-4);
+  EXPECT_EQ(e.dissipated, 0.0);
+  EXPECT_GT(s.neighbors.builds, 10u);  // the gas really moved through the list
+}
+
+}  // namespace
+}  // namespace cosim::dem::test

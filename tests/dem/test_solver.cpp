@@ -1,0 +1,261 @@
+// The DemSolver adapter: scene parsing, errors, fields, the critical step,
+// checkpoint/restore bit for bit, HDF5/XDMF snapshots.
+#include <capnp/message.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "cosim/dem/io/checkpoint.hpp"
+#include "cosim/dem/measure/measures.hpp"
+#include "cosim/dem/solver/dem_solver.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::dem {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path tempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("cosim_dem_test_" + name + "_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+struct Harness {
+  capnp::MallocMessageBuilder inMsg, outMsg;
+  proto::CouplingData::Builder inputs = inMsg.initRoot<proto::CouplingData>();
+  proto::CouplingData::Builder outputs() { return outMsg.initRoot<proto::CouplingData>(); }
+
+  void setup(DemSolver& s, const std::string& yaml, const std::string& file = "scene.yaml", const std::string& dir = "") {
+    wire::SetupContext c{file, yaml, "particles", dir, inputs.asReader()};
+    s.setup(c, outputs());
+  }
+  void advance(DemSolver& s, std::uint32_t steps, double dt) {
+    wire::AdvanceRequest r;
+    r.steps = steps;
+    r.dt = dt;
+    r.inputs = inputs.asReader();
+    s.advance(r, outputs());
+  }
+};
+
+std::string scene(const std::string& params) {
+  return "scene: {name: t}\nsolvers:\n  - name: particles\n    kind: dem\n    params:\n" + params;
+}
+
+// A small frictional pile: random loose packing falling onto a floor.
+const std::string kPile = scene(R"(
+      contact: {normal: hertz, tangential: mindlin, damping: restitution}
+      gravity: [0, 0, -9.81]
+      materials:
+        - {name: sand, density: 2600, young: 5.0e7, poisson: 0.25, restitution: 0.6, friction: 0.5}
+      particles:
+        - random: {min: [0, 0, 0], max: [0.02, 0.02, 0.04], radius: [0.0008, 0.0012], count: 300, seed: 3,
+                   material: sand}
+      walls:
+        - {type: plane, point: [0, 0, 0], normal: [0, 0, 1], material: sand}
+        - {type: plane, point: [0, 0, 0], normal: [1, 0, 0.2], material: sand}
+)");
+
+std::string errorOf(const std::string& yaml) {
+  DemSolver s;
+  Harness h;
+  try {
+    h.setup(s, yaml, "bad.yaml");
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(DemSolver, HertzCollisionSceneFromConfigs) {
+  const fs::path file = fs::path(DEM_CONFIG_DIR) / "hertz_collision.yaml";
+  const fs::path dir = tempDir("hertz");
+  DemSolver s;
+  Harness h;
+  h.setup(s, readFile(file), file.string(), dir.string());
+  EXPECT_GT(s.criticalDt(), 5e-8);
+  h.advance(s, 4000, 5e-8);  // 200 us: the contact (59 us) is over
+  const Particles& p = s.system().particles;
+  const double e = (p.v[1].x - p.v[0].x) / 1.0;
+  std::printf("config hertz_collision: restitution %.6f (requested 0.8)\n", e);
+  EXPECT_NEAR(e, 0.8, 0.008);
+  // Snapshots every 400 steps plus the initial one, with an XDMF sidecar.
+  const io::H5File f = io::H5File::openReadOnly(dir / "hertz_collision.h5");
+  EXPECT_TRUE(f.exists("/snapshots/4000/positions"));
+  EXPECT_EQ(f.shape("/snapshots/4000/positions"), (std::vector<std::size_t>{2, 3}));
+  const std::string xmf = readFile(dir / "hertz_collision.xmf");
+  EXPECT_NE(xmf.find("TopologyType=\"Polyvertex\""), std::string::npos);
+  EXPECT_NE(xmf.find("hertz_collision.h5:/snapshots/4000/positions"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(DemSolver, SettlingSceneParses) {
+  const fs::path file = fs::path(DEM_CONFIG_DIR) / "settling.yaml";
+  DemSolver s;
+  Harness h;
+  std::string yaml = readFile(file);
+  yaml.replace(yaml.find("snapshots"), 9, "#snapshots");
+  h.setup(s, yaml, file.string());
+  EXPECT_EQ(s.system().particles.size(), 8000u);
+  EXPECT_EQ(s.system().planes.size(), 5u);
+  EXPECT_GE(s.criticalDt(), 5e-6);
+  h.advance(s, 20, 5e-6);
+}
+
+TEST(DemSolver, CheckpointRestoreContinuesBitForBit) {
+  const fs::path dir = tempDir("ckpt");
+  DemSolver a;
+  Harness h;
+  h.setup(a, kPile);
+  const double dt = 1e-5;
+  h.advance(a, 12000, dt);  // the pile has landed: contacts with tangential history
+  std::size_t withHistory = 0;
+  for (const Vec3& sh : a.system().neighbors.shear) withHistory += norm2(sh) > 0;
+  ASSERT_GT(withHistory, 20u);
+  const std::uint64_t bytes = a.checkpoint((dir / "a.ckpt").string());
+  EXPECT_GT(bytes, 1000u);
+  h.advance(a, 2000, dt);
+
+  DemSolver b;
+  Harness hb;
+  hb.setup(b, kPile);  // a fresh process: setup, then restore
+  b.restore((dir / "a.ckpt").string());
+  EXPECT_EQ(b.step(), 12000u);
+  hb.advance(b, 2000, dt);
+  const Particles& pa = a.system().particles;
+  const Particles& pb = b.system().particles;
+  ASSERT_EQ(pa.size(), pb.size());
+  EXPECT_EQ(std::memcmp(pa.x.data(), pb.x.data(), pa.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(pa.v.data(), pb.v.data(), pa.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(pa.omega.data(), pb.omega.data(), pa.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(pa.q.data(), pb.q.data(), pa.size() * sizeof(Quat)), 0);
+  ASSERT_EQ(a.system().neighbors.shear.size(), b.system().neighbors.shear.size());
+  EXPECT_EQ(std::memcmp(a.system().neighbors.shear.data(), b.system().neighbors.shear.data(),
+                        a.system().neighbors.shear.size() * sizeof(Vec3)),
+            0);
+  EXPECT_EQ(a.energies(), b.energies());
+  std::printf("checkpoint %llu bytes; %zu contacts with history; 2000 steps after restore identical\n",
+              static_cast<unsigned long long>(bytes), withHistory);
+  // A corrupt file is refused with its name.
+  std::ofstream((dir / "bad.ckpt").string()) << "not a checkpoint";
+  try {
+    b.restore((dir / "bad.ckpt").string());
+    ADD_FAILURE() << "bad checkpoint accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.ckpt"), std::string::npos);
+  }
+  fs::remove_all(dir);
+}
+
+TEST(DemSolver, FieldsAndEnergies) {
+  DemSolver s;
+  Harness h;
+  h.setup(s, kPile);
+  h.advance(s, 10, 1e-5);
+  capnp::MallocMessageBuilder m;
+  auto out = m.initRoot<proto::CouplingData>();
+  s.fields({"positions", "radii", "energies"}, out);
+  ASSERT_EQ(out.getArrays().size(), 3u);
+  EXPECT_EQ(out.getArrays()[0].getValues().size(), 900u);
+  EXPECT_EQ(out.getArrays()[1].getValues().size(), 300u);
+  EXPECT_THROW(s.fields({"temperature"}, out), wire::SolverError);
+  capnp::MallocMessageBuilder all;
+  s.fields({}, all.initRoot<proto::CouplingData>());
+  const auto e = s.energies();
+  EXPECT_EQ(e.front().first, "kinetic");
+  EXPECT_GT(e.front().second, 0.0);
+}
+
+TEST(DemSolver, CriticalStepRefusedUnlessForced) {
+  const std::string base = scene(R"(
+      contact: {normal: linear, tangential: none, damping: none}
+      materials: [{name: m, density: 1000, kn: 1000}]
+      particles:
+        - sphere: {position: [0, 0, 0], radius: 0.01}
+        - sphere: {position: [0.021, 0, 0], radius: 0.01}
+)");
+  DemSolver s;
+  Harness h;
+  h.setup(s, base);
+  // Linear law: sqrt(m*/k) with m* = m/2.
+  const double m = 4.0 / 3.0 * 3.141592653589793 * 1e-6 * 1000;
+  EXPECT_NEAR(s.criticalDt(), std::sqrt(0.5 * m / 1000), 1e-12);
+  try {
+    h.advance(s, 1, 10 * s.criticalDt());
+    ADD_FAILURE() << "dt above the critical step accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("critical step"), std::string::npos) << e.what();
+  }
+  const std::string err = errorOf(base + "      dt: 1.0\n");
+  EXPECT_NE(err.find("params.dt"), std::string::npos) << err;
+  DemSolver forced;
+  Harness hf;
+  hf.setup(forced, base + "      dt: 1.0\n      force: true\n");
+  hf.advance(forced, 1, 1e-3);
+}
+
+TEST(DemSolver, BadInputNamesFileKeyLineParticle) {
+  // Unknown key, with its line.
+  std::string e = errorOf(scene("      gravty: [0, 0, -9.81]\n      particles: [{sphere: {position: [0,0,0], radius: 1}}]\n"));
+  EXPECT_NE(e.find("bad.yaml:6"), std::string::npos) << e;
+  EXPECT_NE(e.find("gravty"), std::string::npos) << e;
+  // Non-positive radius and density.
+  e = errorOf(scene("      particles: [{sphere: {position: [0,0,0], radius: -1}}]\n"));
+  EXPECT_NE(e.find("radius"), std::string::npos) << e;
+  EXPECT_NE(e.find("bad.yaml:6"), std::string::npos) << e;
+  e = errorOf(scene("      materials: [{name: a, density: 0}]\n      particles: [{sphere: {position: [0,0,0], radius: 1}}]\n"));
+  EXPECT_NE(e.find("density"), std::string::npos) << e;
+  // Overlapping particles name both.
+  e = errorOf(scene("      particles:\n        - sphere: {position: [0,0,0], radius: 1}\n"
+                    "        - sphere: {position: [1.5,0,0], radius: 1}\n"));
+  EXPECT_NE(e.find("particles 0 and 1 overlap"), std::string::npos) << e;
+  // Unknown contact law.
+  e = errorOf(scene("      contact: {normal: hooke}\n      particles: [{sphere: {position: [0,0,0], radius: 1}}]\n"));
+  EXPECT_NE(e.find("hooke"), std::string::npos) << e;
+  EXPECT_NE(e.find("bad.yaml:6"), std::string::npos) << e;
+  // NaN in a particle file names the file and line; radius <= 0 names the line.
+  const fs::path dir = tempDir("files");
+  std::ofstream(dir / "nan.csv") << "x,y,z,r\n0,0,0,0.1\n1,nan,0,0.1\n";
+  e = errorOf(scene("      particles: [{file: {path: " + (dir / "nan.csv").string() + "}}]\n"));
+  EXPECT_NE(e.find("nan.csv:3"), std::string::npos) << e;
+  std::ofstream(dir / "neg.csv") << "0 0 0 0.1\n1 0 0 -0.1\n";
+  e = errorOf(scene("      particles: [{file: {path: " + (dir / "neg.csv").string() + "}}]\n"));
+  EXPECT_NE(e.find("neg.csv:2"), std::string::npos) << e;
+  EXPECT_NE(e.find("radius"), std::string::npos) << e;
+  // A good CSV file and an HDF5 file load.
+  std::ofstream(dir / "ok.csv") << "# x y z r vx vy vz\n0 0 0 0.1 1 0 0\n1 0 0 0.1 0 0 0\n";
+  {
+    auto f = io::H5File::create(dir / "ok.h5");
+    const std::vector<double> x{0, 5, 0, 1, 5, 0, 2, 5, 0}, r{0.1, 0.2, 0.3};
+    f.writeArray("/positions", x, 3);
+    f.writeArray("/radii", r, 1);
+  }
+  DemSolver s;
+  Harness h;
+  h.setup(s, scene("      particles:\n        - file: {path: " + (dir / "ok.csv").string() + "}\n" +
+                   "        - file: {path: " + (dir / "ok.h5").string() + "}\n"));
+  EXPECT_EQ(s.system().particles.size(), 5u);
+  EXPECT_EQ(s.system().particles.v[0].x, 1.0);
+  EXPECT_EQ(s.system().particles.radius[4], 0.3);
+  // A missing solver entry.
+  DemSolver t;
+  Harness ht;
+  wire::SetupContext c{"x.yaml", scene("      particles: []\n"), "nobody", "", ht.inputs.asReader()};
+  EXPECT_THROW(t.setup(c, ht.outputs()), wire::SolverError);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cosim::dem

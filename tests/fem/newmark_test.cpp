@@ -1,0 +1,54 @@
+// Newmark-beta (beta = 1/4, gamma = 1/2) free vibration of a clamped beam:
+// the total energy (kinetic + strain) must stay constant to 1e-6 over 1000
+// steps (the trapezoidal rule conserves energy of the linearised system; the
+// amplitude is small so geometric nonlinearity is negligible).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fem_test_util.hpp"
+
+namespace cosim::fem {
+namespace {
+
+TEST(FemNewmark, FreeVibrationEnergyDrift) {
+  const double L = 2.0;
+  auto model = test::makeModel(makeBoxMesh({0, 0, 0}, {0.4, L, 0.4}, {2, 10, 2}), "incompatible-modes", 1e8, 0.25, 1000.0);
+  for (Index n : model->mesh().nodeSet("ymin"))
+    for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
+  NewmarkOptions opts;
+  opts.newton.tolerance = 1e-12;
+  auto integrator = makeNewmark(*model, opts);
+  State state;
+  state.resize(model->numDofs());
+  const Mesh& m = model->mesh();
+  for (Index n = 0; n < m.numNodes(); ++n) {
+    const double y = m.node(n)[1] / L;
+    state.v[3 * n + 2] = 1e-3 * y * y;
+    state.v[3 * n + 0] = 5e-4 * y;
+  }
+  integrator->initialise(state);
+  auto total = [&] {
+    const Energies e = integrator->energies(state);
+    return e.kinetic + e.strain + e.hourglass;
+  };
+  const double E0 = total();
+  double maxDrift = 0.0, maxStrain = 0.0;
+  int maxIterations = 0;
+  for (int s = 0; s < 1000; ++s) {
+    integrator->step(state, 2e-3);
+    maxIterations = std::max(maxIterations, integrator->lastNewton().iterations);
+    if (s % 10 == 9) {
+      maxDrift = std::max(maxDrift, std::abs(total() - E0) / E0);
+      maxStrain = std::max(maxStrain, integrator->energies(state).strain);
+    }
+  }
+  const double finalDrift = std::abs(total() - E0) / E0;
+  std::printf("[newmark] E0 = %.6e J, max relative drift = %.3e, final = %.3e, max strain energy %.3e J, "
+              "max Newton iterations %d\n", E0, maxDrift, finalDrift, maxStrain, maxIterations);
+  EXPECT_GT(maxStrain, 0.5 * E0);  // it really vibrates
+  EXPECT_LT(maxDrift, 1e-6);
+}
+
+}  // namespace
+}  // namespace cosim::fem

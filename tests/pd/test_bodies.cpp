@@ -1,0 +1,218 @@
+// Discretisation, neighbour lists, hybrid surface particles and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <numbers>
+#include <sstream>
+
+#include "cosim/pd/hybrid.hpp"
+#include "pd_test_util.hpp"
+
+namespace cosim::pd {
+namespace {
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::filesystem::path tempFile(const std::string& name, const std::string& text) {
+  const auto p = std::filesystem::temp_directory_path() / ("pd_test_" + name);
+  std::ofstream(p) << text;
+  return p;
+}
+
+TEST(PdBodies, LatticeShapes) {
+  const double h = 1e-3;
+  auto box = test::box("b", "pmb", 10, 4, 3, h, 3.0);
+  const auto cb = discretise(box);
+  EXPECT_EQ(cb.volumes.size(), 120u);
+  EXPECT_DOUBLE_EQ(cb.volumes[0], h * h * h);
+  BodySpec sphere = box;
+  sphere.shape = Shape::Sphere;
+  sphere.center = {0, 0, 0};
+  sphere.radius = 8 * h;
+  const auto cs = discretise(sphere);
+  const double vs = 4.0 / 3.0 * std::numbers::pi * std::pow(8 * h, 3);
+  EXPECT_NEAR(cs.volumes.size() * h * h * h / vs, 1.0, 0.05);
+  BodySpec cyl = box;
+  cyl.shape = Shape::Cylinder;
+  cyl.center = {0, 0, 0};
+  cyl.radius = 6 * h;
+  cyl.length = 10 * h;
+  cyl.axis = 0;
+  const auto cc = discretise(cyl);
+  const double vc = std::numbers::pi * 36 * h * h * 10 * h;
+  EXPECT_NEAR(cc.volumes.size() * h * h * h / vc, 1.0, 0.05);
+  for (std::size_t q = 0; q < cc.volumes.size(); ++q) EXPECT_TRUE(insideShape(cyl, &cc.positions[3 * q], 1e-12));
+}
+
+TEST(PdBodies, NeighbourListsAreSymmetricWithPartialVolumes) {
+  PdSystem sys;
+  sys.addBody(test::box("b", "pmb", 9, 9, 9, 1.0, 3.0));
+  sys.finalise();
+  const auto& b = sys.bodies()[0].bonds;
+  const auto& p = sys.particles();
+  for (std::size_t i = 0; i < b.rows(); ++i)
+    for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+      const std::size_t j = b.neighbor[k];
+      bool found = false;
+      for (std::size_t q = b.offset[j]; q < b.offset[j + 1]; ++q) found = found || b.neighbor[q] == i;
+      ASSERT_TRUE(found);
+      EXPECT_LT(b.length[k], 3.5);
+      EXPECT_GT(b.volumeFraction[k], 0.0);
+      EXPECT_LE(b.volumeFraction[k], 1.0);
+      if (b.length[k] <= 2.5) {
+        EXPECT_EQ(b.volumeFraction[k], 1.0);
+      }
+    }
+  // The centre particle (4,4,4) has the complete family: lattice points with |xi| < 3.5.
+  std::size_t centre = 0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.reference[3 * i] == 4.5 && p.reference[3 * i + 1] == 4.5 && p.reference[3 * i + 2] == 4.5) centre = i;
+  int expected = 0;
+  for (int x = -3; x <= 3; ++x)
+    for (int y = -3; y <= 3; ++y)
+      for (int z = -3; z <= 3; ++z)
+        if ((x || y || z) && std::sqrt(x * x + y * y + z * z) < 3.5) ++expected;
+  EXPECT_EQ(b.offset[centre + 1] - b.offset[centre], static_cast<std::size_t>(expected));
+}
+
+TEST(PdBodies, HybridSurfaceParticlesQuasiRadiusAndNormals) {
+  const double h = 2e-3;
+  PdSystem sys;
+  sys.addBody(test::box("b", "lps", 6, 5, 4, h, 3.0));
+  sys.finalise();
+  const auto& p = sys.particles();
+  const auto s = surfaceParticles(p, 0, p.size(), h);
+  EXPECT_EQ(s.size(), 120u - 4u * 3u * 2u);  // all but the 4 x 3 x 2 core
+  for (const auto i : s) {
+    bool onFace = false;
+    for (int a = 0; a < 3; ++a) {
+      const double x = p.reference[3 * i + a] / h;
+      const double n = a == 0 ? 6 : (a == 1 ? 5 : 4);
+      onFace = onFace || std::abs(x - 0.5) < 1e-9 || std::abs(x - (n - 0.5)) < 1e-9;
+    }
+    EXPECT_TRUE(onFace);
+  }
+  // Hartmann Eq. 39 and the paper's example: spacing 1.5 cm gives R = 0.93 cm.
+  EXPECT_NEAR(quasiRadius(1.5e-2 * 1.5e-2 * 1.5e-2), 0.93e-2, 0.005e-2);
+  // Outward normal of the particle in the middle of the x-min face of a cube.
+  PdSystem cube;
+  cube.addBody(test::box("c", "lps", 7, 7, 7, h, 3.0));
+  cube.finalise();
+  const auto& q = cube.particles();
+  int checked = 0;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    if (std::abs(q.reference[3 * i] - 0.5 * h) < 1e-12 && std::abs(q.reference[3 * i + 1] - 3.5 * h) < 1e-12 &&
+        std::abs(q.reference[3 * i + 2] - 3.5 * h) < 1e-12) {
+      double n[3];
+      ASSERT_TRUE(surfaceNormal(q, cube.bodies()[0].bonds, i, n));
+      EXPECT_NEAR(n[0], -1.0, 1e-12);
+      EXPECT_NEAR(n[1], 0.0, 1e-12);
+      EXPECT_NEAR(n[2], 0.0, 1e-12);
+      ++checked;
+    }
+  EXPECT_EQ(checked, 1);
+}
+
+TEST(PdBodies, BadInputNamesBodyFileAndLine) {
+  auto spec = test::box("slab", "pmb", 4, 4, 4, 1e-3, 3.0);
+  spec.spacing = 0.0;
+  auto msg = errorOf([&] { PdSystem s; s.addBody(spec); });
+  EXPECT_NE(msg.find("body 'slab'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("spacing"), std::string::npos) << msg;
+  spec.spacing = 1e-3;
+  spec.horizonFactor = -1.0;
+  msg = errorOf([&] { PdSystem s; s.addBody(spec); });
+  EXPECT_NE(msg.find("body 'slab'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("horizon"), std::string::npos) << msg;
+  spec.horizonFactor = 3.0;
+  spec.model = "nonesuch";
+  msg = errorOf([&] { PdSystem s; s.addBody(spec); });
+  EXPECT_NE(msg.find("nonesuch"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("lps"), std::string::npos) << msg;  // lists the known models
+
+  // Overlap: a second box starting inside the first; touching boxes are fine.
+  auto a = test::box("a", "pmb", 4, 4, 4, 1e-3, 3.0);
+  auto b = a;
+  b.name = "b";
+  b.min = {2e-3, 0, 0};
+  b.max = {6e-3, 4e-3, 4e-3};
+  msg = errorOf([&] { PdSystem s; s.addBody(a); s.addBody(b); });
+  EXPECT_NE(msg.find("body 'b' overlaps body 'a'"), std::string::npos) << msg;
+  b.min = {4e-3, 0, 0};
+  b.max = {8e-3, 4e-3, 4e-3};
+  EXPECT_EQ(errorOf([&] { PdSystem s; s.addBody(a); s.addBody(b); s.finalise(); }), "");
+
+  const auto nanFile = tempFile("nan.txt", "# x y z V\n0 0 0 1e-9\n0.001 0 nan 1e-9\n");
+  msg = errorOf([&] { readPointFile(nanFile.string()); });
+  EXPECT_NE(msg.find(nanFile.string() + ":3"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("NaN"), std::string::npos) << msg;
+  const auto zeroFile = tempFile("zero.txt", "0 0 0 1e-9\n0.001 0 0 0\n");
+  msg = errorOf([&] { readPointFile(zeroFile.string()); });
+  EXPECT_NE(msg.find(zeroFile.string() + ":2"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("volume must be positive"), std::string::npos) << msg;
+  const auto badFile = tempFile("bad.txt", "0 0 zero 1e-9\n");
+  msg = errorOf([&] { readPointFile(badFile.string()); });
+  EXPECT_NE(msg.find(":1: 'zero' is not a number"), std::string::npos) << msg;
+  BodySpec pts = a;
+  pts.name = "cloud";
+  pts.shape = Shape::Points;
+  pts.pointsFile = zeroFile.string();
+  msg = errorOf([&] { PdSystem s; s.addBody(pts); });
+  EXPECT_NE(msg.find("body 'cloud'"), std::string::npos) << msg;
+}
+
+TEST(PdBodies, PointCloudBodyMatchesLattice) {
+  // The same lattice given as a file behaves like the lattice body.
+  std::ostringstream text;
+  const double h = 1e-3;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      for (int k = 0; k < 6; ++k) text << (i + 0.5) * h << ' ' << (j + 0.5) * h << ' ' << (k + 0.5) * h << ' ' << h * h * h << '\n';
+  const auto file = tempFile("cloud.txt", text.str());
+  auto spec = test::box("cloud", "lps", 6, 6, 6, h, 3.0);
+  spec.shape = Shape::Points;
+  spec.pointsFile = file.string();
+  spec.spacing = 0.0;  // from the mean volume
+  PdSystem a, b;
+  a.addBody(spec);
+  a.finalise();
+  b.addBody(test::box("lattice", "lps", 6, 6, 6, h, 3.0));
+  b.finalise();
+  EXPECT_NEAR(a.bodies()[0].spacing / h, 1.0, 1e-12);
+  EXPECT_EQ(a.bodies()[0].bonds.count(), b.bodies()[0].bonds.count());
+}
+
+TEST(PdBodies, SeveralBodiesKeepTheirOwnMaterialAndHorizon) {
+  PdSystem sys;
+  auto a = test::box("soft", "lps", 4, 4, 4, 1e-3, 3.0, 0.3);
+  auto b = test::box("hard", "pmb", 4, 4, 4, 0.5e-3, 2.0);
+  b.min = {10e-3, 0, 0};
+  b.max = {12e-3, 2e-3, 2e-3};
+  b.material.youngsModulus = 100e9;
+  sys.addBody(a);
+  sys.addBody(b);
+  sys.finalise();
+  EXPECT_DOUBLE_EQ(sys.bodies()[0].horizon, 3e-3);
+  EXPECT_DOUBLE_EQ(sys.bodies()[1].horizon, 1e-3);
+  // No bond crosses bodies.
+  for (const auto& body : sys.bodies())
+    for (const auto j : body.bonds.neighbor) {
+      EXPECT_GE(j, body.begin);
+      EXPECT_LT(j, body.end);
+    }
+  // The stiffer, finer body sets the critical step (Eqs. 41-42).
+  EXPECT_DOUBLE_EQ(sys.criticalTimeStep(), 0.5e-3 / b.material.cflWaveSpeed());
+}
+
+}  // namespace
+}  // namespace cosim::pd

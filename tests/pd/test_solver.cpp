@@ -1,0 +1,256 @@
+// The PdSolver adapter: scene parsing and its errors, critical step, sub-steps
+// with held or interpolated inputs, hybrid particles, checkpoint/restore
+// (bit-for-bit continuation), fields, energies and HDF5/XDMF snapshots.
+#include <gtest/gtest.h>
+
+#include <capnp/message.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "cosim/io/h5_file.hpp"
+#include "cosim/pd/pd_solver.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::pd {
+namespace {
+
+using cosim::proto::CouplingData;
+
+std::string scene(const std::string& extraParams = "", const std::string& bodyExtra = "") {
+  return "solvers:\n"
+         "  - name: other\n"
+         "    kind: dem\n"
+         "    params: {}\n"
+         "  - name: pd\n"
+         "    kind: pd\n"
+         "    params:\n"
+         "      bodies:\n"
+         "        - name: bar\n"
+         "          shape: box\n"
+         "          min: [0, 0, 0]\n"
+         "          max: [0.012, 0.004, 0.004]\n"
+         "          spacing: 0.001\n"
+         "          horizon: 3\n"
+         "          model: lps\n"
+         "          surface_correction: true\n"
+         "          material: {E: 1.0e9, nu: 0.25, rho: 1000}\n" +
+         bodyExtra + extraParams;
+}
+
+cosim::wire::SetupContext context(const std::string& yaml, const std::string& runDir = "") {
+  cosim::wire::SetupContext c;
+  c.sceneFile = "scene.yaml";
+  c.sceneYaml = yaml;
+  c.instance = "pd";
+  c.runDir = runDir;
+  return c;
+}
+
+struct Fixture {
+  capnp::MallocMessageBuilder out;
+  PdSolver solver;
+  explicit Fixture(const std::string& yaml, const std::string& runDir = "") {
+    solver.setup(context(yaml, runDir), out.initRoot<CouplingData>());
+  }
+};
+
+std::string setupError(const std::string& yaml) {
+  try {
+    Fixture f(yaml);
+  } catch (const cosim::wire::SolverError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Advance with a hybrid force F (start) and optionally F1 (end) on one particle.
+void advance(PdSolver& s, std::uint32_t steps, double dt, std::uint32_t id, double f0, double f1, bool end) {
+  capnp::MallocMessageBuilder in0, in1, out;
+  auto d0 = in0.initRoot<CouplingData>();
+  auto h0 = d0.initHybridForces(1)[0];
+  h0.initIds(1).set(0, id);
+  h0.initForces(3).set(2, f0);
+  cosim::wire::AdvanceRequest req;
+  req.steps = steps;
+  req.dt = dt;
+  req.inputs = d0.asReader();
+  if (end) {
+    auto d1 = in1.initRoot<CouplingData>();
+    auto h1 = d1.initHybridForces(1)[0];
+    h1.initIds(1).set(0, id);
+    h1.initForces(3).set(2, f1);
+    req.inputsEnd = d1.asReader();
+  }
+  s.advance(req, out.initRoot<CouplingData>());
+}
+
+double momentumZ(PdSolver& s) {
+  const auto& p = s.system().particles();
+  double m = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) m += p.mass[i] * p.velocity[3 * i + 2];
+  return m;
+}
+
+TEST(PdSolverSetup, HybridParticlesAndCapabilities) {
+  Fixture f(scene());
+  const auto caps = f.solver.info().capabilities;
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "hybrid-particles"), caps.end());
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "checkpoint"), caps.end());
+  const auto out = f.out.getRoot<CouplingData>().asReader();
+  ASSERT_EQ(out.getHybridParticles().size(), 1u);
+  const auto h = out.getHybridParticles()[0];
+  EXPECT_EQ(h.getIds().size(), 12u * 4u * 4u - 10u * 2u * 2u);  // outer layer of 12 x 4 x 4
+  EXPECT_EQ(h.getPositions().size(), 3u * h.getIds().size());
+  EXPECT_NEAR(h.getRadii()[0], std::cbrt(3e-9 / (4.0 * M_PI)), 1e-15);
+  ASSERT_EQ(h.getHorizons().size(), 1u);
+  EXPECT_NEAR(h.getHorizons()[0], 3e-3, 1e-15);
+  EXPECT_GT(f.solver.criticalDt(), 0.0);
+}
+
+TEST(PdSolverSetup, BadInputNamesKeyAndLine) {
+  auto msg = setupError(scene("", "          colour: red\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: unknown key 'colour' in body"), std::string::npos) << msg;
+  msg = setupError(scene("      speed: 3\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: unknown key 'speed' in params"), std::string::npos) << msg;
+  std::string s = scene();
+  s.replace(s.find("spacing: 0.001"), 14, "spacing: -0.001");
+  msg = setupError(s);
+  EXPECT_NE(msg.find("scene.yaml:13: 'spacing' must be positive"), std::string::npos) << msg;
+  s = scene();
+  s.replace(s.find("horizon: 3"), 10, "horizon: 0");
+  msg = setupError(s);
+  EXPECT_NE(msg.find("scene.yaml:14: 'horizon' must be positive"), std::string::npos) << msg;
+  msg = setupError(scene("",
+                         "        - name: second\n"
+                         "          min: [0.005, 0, 0]\n"
+                         "          max: [0.02, 0.004, 0.004]\n"
+                         "          spacing: 0.001\n"
+                         "          model: lps\n"
+                         "          material: {E: 1.0e9, nu: 0.25, rho: 1000}\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'second' overlaps body 'bar'"), std::string::npos) << msg;
+  const auto file = std::filesystem::temp_directory_path() / "pd_solver_nan_points.txt";
+  std::ofstream(file) << "0.1 0.1 0.1 1e-9\n0.1 0.2 nan 1e-9\n";
+  msg = setupError(scene("",
+                         "        - name: cloud\n"
+                         "          shape: points\n"
+                         "          file: " + file.string() + "\n"
+                         "          model: lps\n"
+                         "          material: {E: 1.0e9, nu: 0.25, rho: 1000}\n"));
+  EXPECT_NE(msg.find("body 'cloud'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(file.string() + ":2"), std::string::npos) << msg;
+  msg = setupError(scene("      boundary:\n        - {select: {body: nowhere}, type: fixed}\n"));
+  EXPECT_NE(msg.find("nowhere"), std::string::npos) << msg;
+}
+
+TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
+  Fixture f(scene());
+  const double crit = f.solver.criticalDt();
+  try {
+    advance(f.solver, 1, 1.5 * crit, 0, 0.0, 0.0, false);
+    FAIL() << "dt above the critical step was accepted";
+  } catch (const cosim::wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("exceeds the PD critical step"), std::string::npos) << e.what();
+  }
+  Fixture forced(scene("      force: true\n"));
+  advance(forced.solver, 1, 1.5 * crit, 0, 0.0, 0.0, false);
+  EXPECT_EQ(forced.solver.step(), 1u);
+}
+
+TEST(PdSolverAdvance, InputsHeldOrInterpolatedOverSubSteps) {
+  // Internal forces cancel, so the body's momentum change is the impulse of
+  // the hybrid force: n dt F0 when held, n dt (F0 + F1) / 2 when interpolated.
+  const std::uint32_t n = 8;
+  Fixture held(scene());
+  const double dt = 0.5 * held.solver.criticalDt();
+  const auto id = held.out.getRoot<CouplingData>().asReader().getHybridParticles()[0].getIds()[0];
+  advance(held.solver, n, dt, id, 1.0, 3.0, true);
+  EXPECT_NEAR(momentumZ(held.solver) / (n * dt * 1.0), 1.0, 1e-9);
+  Fixture interp(scene("      inputs: interpolate\n"));
+  advance(interp.solver, n, dt, id, 1.0, 3.0, true);
+  EXPECT_NEAR(momentumZ(interp.solver) / (n * dt * 2.0), 1.0, 1e-9);
+  EXPECT_EQ(interp.solver.step(), n);
+  EXPECT_NEAR(interp.solver.time(), n * dt, 1e-18);
+  // The force acts on the particle it names from the first update on.
+  const auto& p = interp.solver.system().particles();
+  EXPECT_GT(p.displacement[3 * id + 2], 0.0);
+  // Work of the hybrid force is counted.
+  const auto e = interp.solver.energies();
+  ASSERT_EQ(e.size(), 3u);
+  EXPECT_EQ(e[2].first, "external_work");
+  EXPECT_GT(e[2].second, 0.0);
+}
+
+TEST(PdSolverCheckpoint, RestoreContinuesBitForBit) {
+  const auto dir = std::filesystem::temp_directory_path() / "pd_solver_ckpt";
+  std::filesystem::create_directories(dir);
+  const auto path = (dir / "state.bin").string();
+  const std::string yaml = scene("", "          velocity: [0.01, 0, 0]\n");
+  Fixture a(yaml);
+  const double dt = 0.5 * a.solver.criticalDt();
+  advance(a.solver, 10, dt, 3, 0.5, 0.0, false);
+  EXPECT_GT(a.solver.checkpoint(path), 0u);
+  advance(a.solver, 10, dt, 3, 0.25, 0.0, false);
+  Fixture b(yaml);
+  b.solver.restore(path);
+  EXPECT_EQ(b.solver.step(), 10u);
+  advance(b.solver, 10, dt, 3, 0.25, 0.0, false);
+  const auto& pa = a.solver.system().particles();
+  const auto& pb = b.solver.system().particles();
+  EXPECT_EQ(std::memcmp(pa.displacement.data(), pb.displacement.data(), pa.displacement.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(pa.velocity.data(), pb.velocity.data(), pa.velocity.size() * sizeof(double)), 0);
+  EXPECT_EQ(a.solver.time(), b.solver.time());
+  EXPECT_EQ(a.solver.energies(), b.solver.energies());
+  // A checkpoint of another setup is refused with a message, state untouched.
+  Fixture c(scene("", "").replace(scene().find("0.012"), 5, "0.010"));
+  try {
+    c.solver.restore(path);
+    FAIL() << "mismatched checkpoint accepted";
+  } catch (const cosim::wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos);
+  }
+  EXPECT_EQ(c.solver.step(), 0u);
+}
+
+TEST(PdSolverFields, NamedArraysAndUnknownName) {
+  Fixture f(scene());
+  capnp::MallocMessageBuilder out;
+  f.solver.fields({}, out.initRoot<CouplingData>());
+  const auto arrays = out.getRoot<CouplingData>().asReader().getArrays();
+  EXPECT_EQ(arrays.size(), PdSolver::fieldNames().size());
+  const std::size_t n = f.solver.system().particles().size();
+  for (const auto a : arrays) EXPECT_EQ(a.getValues().size(), n * a.getComponents()) << a.getName().cStr();
+  capnp::MallocMessageBuilder out2;
+  EXPECT_THROW(f.solver.fields({"temperature"}, out2.initRoot<CouplingData>()), cosim::wire::SolverError);
+}
+
+TEST(PdSolverOutput, SnapshotsWithXdmfSidecar) {
+  const auto dir = std::filesystem::temp_directory_path() / "pd_solver_out";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    Fixture f(scene("      output: {file: pd.h5, every: 2}\n"), dir.string());
+    const double dt = 0.5 * f.solver.criticalDt();
+    for (int k = 0; k < 4; ++k) advance(f.solver, 3, dt, 0, 1.0, 0.0, false);
+  }
+  auto file = cosim::io::H5File::openReadOnly(dir / "pd.h5");
+  EXPECT_TRUE(file.exists("/snapshots/0/position"));
+  EXPECT_TRUE(file.exists("/snapshots/6/von_mises"));
+  EXPECT_TRUE(file.exists("/snapshots/12/strain"));
+  EXPECT_FALSE(file.exists("/snapshots/3"));
+  const auto shape = file.shape("/snapshots/12/strain");
+  ASSERT_EQ(shape.size(), 2u);
+  EXPECT_EQ(shape[0], 12u * 4u * 4u);
+  EXPECT_EQ(shape[1], 6u);
+  std::ifstream xmf(dir / "pd.xmf");
+  std::stringstream text;
+  text << xmf.rdbuf();
+  EXPECT_NE(text.str().find("TopologyType=\"Polyvertex\""), std::string::npos);
+  EXPECT_NE(text.str().find("pd.h5:/snapshots/12/displacement"), std::string::npos);
+  EXPECT_NE(text.str().find("Name=\"damage\""), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cosim::pd
