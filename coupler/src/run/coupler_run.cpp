@@ -134,6 +134,7 @@ class CouplerRun final : public ExchangeDriver {
   void prepareOutput() {
     if (options_.resume) return prepareResume();
     fs::create_directories(runDir_);
+    fs::remove_all(runDir_ / "checkpoints");  // a fresh run must never resume from an older one's state
     h5_.emplace(io::H5File::create(runDir_ / "coupler.h5"));
     h5_->setAttribute("/", "scene", scene_.name);
     h5_->setAttribute("/", "scene_file", fs::absolute(scene_.file).string());
