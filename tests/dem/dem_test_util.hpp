@@ -34,6 +34,7 @@ struct CollisionResult {
   double contactTime = 0.0;
   double restitution = 0.0;
   double energyIn = 0.0, energyOut = 0.0;
+  double balanceError = 0.0;  // relative change of kinetic + elastic + dissipated
 };
 
 }  // namespace cosim::dem::test

@@ -257,5 +257,35 @@ TEST(DemSolver, BadInputNamesFileKeyLineParticle) {
   fs::remove_all(dir);
 }
 
+TEST(DemSolver, PeriodicCellFromScene) {
+  const std::string yaml = scene(R"(
+      contact: {normal: linear, tangential: none, damping: none}
+      materials: [{name: m, density: 1000, kn: 10000}]
+      particles:
+        - lattice: {origin: [0.01, 0.01, 0.01], spacing: 0.0199, counts: [3, 3, 3], radius: 0.01}
+      periodic: {cell: [[0.0597, 0, 0], [0, 0.0597, 0], [0, 0, 0.0597]], velocity_gradient: [[0, 1, 0], [0, 0, 0], [0, 0, 0]]}
+      mass_damping: 0.0
+      overlap_tolerance: 0.02
+)");
+  DemSolver s;
+  Harness h;
+  h.setup(s, yaml);
+  EXPECT_TRUE(s.system().cell.enabled);
+  EXPECT_NEAR(s.system().cell.volume(), 0.0597 * 0.0597 * 0.0597, 1e-15);
+  // 27 spheres, each touching its 6 lattice neighbours across the periodic faces too.
+  EXPECT_NEAR(coordinationNumber(s.system()), 6.0, 1e-12);
+  h.advance(s, 100, 1e-4);
+  EXPECT_NEAR(s.system().cell.h[1], 0.0597 * 100 * 1e-4, 1e-12);  // sheared: H_xy = gamma L
+  capnp::MallocMessageBuilder m;
+  auto out = m.initRoot<proto::CouplingData>();
+  s.fields({"stress", "porosity", "unbalanced_force_index"}, out);
+  ASSERT_EQ(out.getArrays()[0].getValues().size(), 9u);
+  EXPECT_LT(out.getArrays()[0].getValues()[0], 0.0);  // compressed lattice
+  EXPECT_NEAR(out.getArrays()[1].getValues()[0], 1.0 - 27 * 4.18879e-6 / std::pow(0.0597, 3), 1e-4);
+  const std::string bad = errorOf(scene("      particles: [{sphere: {position: [0,0,0], radius: 0.001}}]\n"
+                                        "      periodic: {cell: [[1, 0, 0], [0, 1, 0]]}\n"));
+  EXPECT_NE(bad.find("periodic.cell"), std::string::npos) << bad;
+}
+
 }  // namespace
 }  // namespace cosim::dem

@@ -1,0 +1,84 @@
+#pragma once
+// The DEM model: particles, materials, the composed contact law, walls, the
+// neighbour list and the integrator, advanced one step at a time. Everything a
+// run needs is in here, so a checkpoint of this object is a full restart.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/dem/bonds/bonded_spring.hpp"
+#include "cosim/dem/contact/contact_law.hpp"
+#include "cosim/dem/integrate/integrator.hpp"
+#include "cosim/dem/material.hpp"
+#include "cosim/dem/neighbor/neighbor_list.hpp"
+#include "cosim/dem/particles.hpp"
+#include "cosim/dem/periodic_cell.hpp"
+#include "cosim/dem/walls/plane_wall.hpp"
+#include "cosim/dem/walls/triangle_wall_group.hpp"
+
+namespace cosim::dem {
+
+/// Force on i and torque on j of one listed pair (zero when apart). The row
+/// owner i sums its side in the pair loop; j gathers these afterwards.
+struct PairForce {
+  Vec3 force, torqueJ;
+};
+
+class DemSystem {
+ public:
+  DemSystem();
+  Particles particles;
+  MaterialTable materials;
+  std::vector<PlaneWall> planes;
+  std::vector<TriangleWallGroup> meshes;
+  NeighborList neighbors;
+  PeriodicCell cell;  // disabled unless a scene asks for it
+  BondedSprings bonds;
+  Vec3 gravity;
+  double time = 0.0;
+  std::uint64_t step = 0;
+  double massDamping = 0.0;     // c of the mass damping force -c m v (dynamic relaxation, Liu 2016 Sec. 2.3.2) [1/s]
+  double dissipated = 0.0;      // energy lost in dashpots and sliding [J]
+  double externalWork = 0.0;    // work of moving walls and external forces [J]
+
+  void setContactLaw(const std::string& normal, const std::string& tangential, const std::string& damping);
+  void setIntegrator(const std::string& name);
+  const ContactLaw& contactLaw() const { return *law_; }
+  const std::array<std::string, 3>& contactLawNames() const { return lawNames_; }
+  const std::string& integratorName() const { return integratorName_; }
+  /// Pair table, wall histories, neighbour list and the forces at the current state.
+  void initialize();
+  /// One time step of size dt.
+  void advance(double dt);
+  /// Forces and torques of the current positions and velocities.
+  void computeForces(double dt);
+
+  /// x_i - x_j of listed pair k of row i (nearest image in a periodic cell).
+  Vec3 pairVector(std::size_t i, std::size_t k) const {
+    const Vec3 d = particles.x[i] - particles.x[neighbors.partner[k]];
+    return cell.enabled ? d - cell.shift(neighbors.image[k]) : d;
+  }
+  /// Maps positions into the periodic cell (between neighbour builds they may leave it).
+  void wrapIntoCell();
+
+  std::vector<PairForce> pairForce;           // parallel to neighbors.partner
+  std::vector<std::vector<Vec3>> planeShear;  // [wall][particle] tangential history
+  std::vector<std::vector<std::uint8_t>> planeTouch;  // [wall][particle] 1 while in contact
+
+ private:
+  void pairForces(double dt);
+  template <class Normal, class Tangential>
+  void pairLoopFor(const Normal& normal, const Tangential& tangential, double dt);
+  template <bool Periodic, class Normal, class Tangential>
+  void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
+  void gatherForces(double dt);
+  std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
+  std::unique_ptr<ContactLaw> law_;
+  std::unique_ptr<Integrator> integrator_;
+  std::array<std::string, 3> lawNames_;
+  std::string integratorName_;
+};
+
+}  // namespace cosim::dem

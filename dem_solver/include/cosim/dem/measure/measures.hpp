@@ -1,0 +1,41 @@
+#pragma once
+// Measures of a DEM state: energies, coordination, porosity, Love-Weber
+// stress, and the Hertz-aware critical time step.
+#include <array>
+
+#include "cosim/dem/dem_system.hpp"
+
+namespace cosim::dem {
+
+struct Energies {
+  double translational = 0.0, rotational = 0.0;
+  double elastic = 0.0;    // contact springs (normal + tangential), particles and walls
+  double potential = 0.0;  // gravity, relative to the origin
+  double dissipated = 0.0;
+  double externalWork = 0.0;
+  double kinetic() const { return translational + rotational; }
+  /// Conserved in exact arithmetic: kinetic + elastic + potential + dissipated - external work.
+  double balance() const { return kinetic() + elastic + potential + dissipated - externalWork; }
+};
+
+Energies energies(const DemSystem& s);
+/// Mean number of particle-particle contacts per particle, 2 C / N.
+double coordinationNumber(const DemSystem& s);
+/// Cauchy stress (tension positive), row-major 3x3, over volume V (Love-Weber):
+/// sigma = -1/V [ sum_c f_c (x) d_c + sum_p m_p v_p (x) v_p ] with d_c = x_i - x_j
+/// (Liu 2016 Eq. 54 with the kinetic part). Particle-particle contacts only: meant
+/// for periodic cells and interior sub-volumes; wall reactions are in PlaneWall::force.
+std::array<double, 9> loveWeberStress(const DemSystem& s, double volume);
+double solidVolume(const DemSystem& s);
+/// Unbalanced-force index (Liu 2016 Eq. 57, after Ng):
+/// I_uf = sqrt(mean_p |f_unbalanced|^2) / sqrt(mean_c |f_contact|^2), where the
+/// unbalanced force is the net force without the mass-damping term. 0 without contacts.
+double unbalancedForceIndex(const DemSystem& s);
+/// Dynamic relaxation: advances with the system's mass damping until
+/// I_uf < tolerance (checked every `every` steps) or maxSteps; returns the steps taken.
+long relax(DemSystem& s, double dt, double tolerance, long maxSteps, long every = 10);
+/// Largest stable step: sqrt(m*/k) for linear springs; for Hertz the smaller of
+/// the Rayleigh step and the Hertz contact time at twice the fastest speed / pi.
+double criticalTimeStep(const DemSystem& s);
+
+}  // namespace cosim::dem

@@ -1,0 +1,46 @@
+#pragma once
+// The dem_solver process's side of the protocol: a wire::Solver around a DemSystem.
+#include <memory>
+#include <string>
+
+#include "cosim/dem/dem_system.hpp"
+#include "cosim/dem/io/snapshot_writer.hpp"
+#include "cosim/dem/solver/scene_params.hpp"
+#include "cosim/wire/solver.hpp"
+
+namespace cosim::dem {
+
+class DemSolver final : public wire::Solver {
+ public:
+  wire::SolverInfo info() const override;
+  void setup(const wire::SetupContext& context, proto::CouplingData::Builder outputs) override;
+  void advance(const wire::AdvanceRequest& request, proto::CouplingData::Builder outputs) override;
+  /// Names: positions, velocities, angular_velocities, orientations, forces,
+  /// radii, masses, ids, energies, coordination, plane_wall_forces, and with a periodic
+  /// cell stress (Love-Weber, 9), porosity; unbalanced_force_index (Liu Eq. 57). Empty list = all.
+  void fields(const std::vector<std::string>& names, proto::CouplingData::Builder out) override;
+  std::uint64_t checkpoint(const std::string& path) override;
+  void restore(const std::string& path) override;
+  double time() const override { return system_.time; }
+  std::uint64_t step() const override { return system_.step; }
+  double criticalDt() const override;
+  wire::NamedValues energies() const override;
+  std::size_t outputWordsHint() const override { return 2048 + 32 * system_.particles.size(); }
+
+  DemSystem& system() { return system_; }
+  const RunSettings& settings() const { return settings_; }
+
+ private:
+  void checkDt(double dt, const std::string& where);
+  void applyInputs(proto::CouplingData::Reader inputs);
+  void fillOutputs(proto::CouplingData::Builder outputs) const;
+  void checkFinite() const;
+  DemSystem system_;
+  RunSettings settings_;
+  std::string sceneFile_, instance_, runDir_;
+  std::unique_ptr<SnapshotWriter> snapshots_;
+  double checkedDt_ = 0.0;
+  bool ready_ = false;
+};
+
+}  // namespace cosim::dem

@@ -1,0 +1,48 @@
+#pragma once
+// Builds a DemSystem from the `params:` map of a dem solver entry in a scene:
+//
+//   params:
+//     contact: {normal: hertz, tangential: mindlin, damping: restitution}
+//     integrator: velocity-verlet        # or leapfrog
+//     gravity: [0, 0, -9.81]
+//     skin: 0.0005                       # Verlet skin [m] (default 0.2 r_min)
+//     dt: 1.0e-6                         # optional: checked against the critical step
+//     force: false                       # accept dt above the critical step
+//     overlap_tolerance: 0.01            # initial overlap allowed, fraction of the smaller radius
+//     materials: [{name, density, young, poisson, restitution, friction, kn, kt}]
+//     particles:                         # a list of sources
+//       - {lattice: {origin, spacing, counts, radius, kind, material, velocity}}
+//       - {random: {min, max, radius: [rmin, rmax], count, seed, material}}
+//       - {file: {path, material}}
+//       - {sphere: {position, radius, velocity, material}}
+//     walls:
+//       - {type: plane, name, point, normal, velocity, mode: fixed|velocity|servo,
+//          stress, area, gain, material}
+//       - {type: mesh, name, vertices: [[x,y,z]...], triangles: [[a,b,c]...], velocity, material}
+//     periodic: {cell: [[a], [b], [c]], velocity_gradient: [[row], [row], [row]]}
+//     mass_damping: 0.0                  # c of -c m v (dynamic relaxation)
+//     snapshots: {every: 1000, file: particles.h5}
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+
+#include "cosim/dem/dem_system.hpp"
+
+namespace cosim::dem {
+
+struct RunSettings {
+  double dt = 0.0;
+  bool force = false;
+  double overlapTolerance = 0.01;
+  long snapshotEvery = 0;
+  std::string snapshotFile;
+};
+
+/// Finds the `solvers:` entry named instance in the scene text; throws SceneError.
+YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sceneFile, const std::string& instance);
+/// Fills system (before initialize()) and settings from a params map.
+void configure(const YAML::Node& params, const std::string& sceneFile, DemSystem& system, RunSettings& settings);
+/// Checks radii, densities, finiteness and initial overlaps; throws naming the particle.
+void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context);
+
+}  // namespace cosim::dem

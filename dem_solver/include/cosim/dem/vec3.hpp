@@ -1,0 +1,63 @@
+#pragma once
+// Small fixed-size vector and quaternion types for the DEM hot loops. Plain
+// aggregates (no Eigen expression templates) so arrays of them are contiguous
+// x,y,z triples that checkpoint and travel on the wire as flat doubles.
+#include <cmath>
+
+namespace cosim::dem {
+
+struct Vec3 {
+  double x = 0.0, y = 0.0, z = 0.0;
+  constexpr Vec3& operator+=(const Vec3& o) { x += o.x; y += o.y; z += o.z; return *this; }
+  constexpr Vec3& operator-=(const Vec3& o) { x -= o.x; y -= o.y; z -= o.z; return *this; }
+  constexpr Vec3& operator*=(double s) { x *= s; y *= s; z *= s; return *this; }
+  constexpr double operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  constexpr double& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+};
+
+constexpr Vec3 operator+(Vec3 a, const Vec3& b) { return a += b; }
+constexpr Vec3 operator-(Vec3 a, const Vec3& b) { return a -= b; }
+constexpr Vec3 operator-(const Vec3& a) { return {-a.x, -a.y, -a.z}; }
+constexpr Vec3 operator*(Vec3 a, double s) { return a *= s; }
+constexpr Vec3 operator*(double s, Vec3 a) { return a *= s; }
+constexpr double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+constexpr double norm2(const Vec3& a) { return dot(a, a); }
+inline double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+
+/// Unit quaternion w + xi + yj + zk for particle orientation.
+struct Quat {
+  double w = 1.0, x = 0.0, y = 0.0, z = 0.0;
+};
+
+constexpr Quat operator*(const Quat& a, const Quat& b) {
+  return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+          a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
+}
+
+/// Rotates q by the rotation vector phi (angle |phi| about phi/|phi|), in the
+/// space frame: q <- exp(phi/2) * q, renormalised against round-off drift.
+inline Quat rotated(const Quat& q, const Vec3& phi) {
+  const double a2 = norm2(phi);
+  if (a2 == 0.0) return q;
+  double c, s;
+  if (a2 < 1e-6) {
+    // Small angle (every DEM step): Taylor series of cos(a/2) and sin(a/2)/a,
+    // truncation below 1e-22, instead of sincos.
+    c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0;
+    s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0;
+  } else {
+    const double angle = std::sqrt(a2);
+    c = std::cos(0.5 * angle);
+    s = std::sin(0.5 * angle) / angle;
+  }
+  const Quat r{c, phi.x * s, phi.y * s, phi.z * s};
+  Quat out = r * q;
+  const double inv = 1.0 / std::sqrt(out.w * out.w + out.x * out.x + out.y * out.y + out.z * out.z);
+  out.w *= inv; out.x *= inv; out.y *= inv; out.z *= inv;
+  return out;
+}
+
+}  // namespace cosim::dem

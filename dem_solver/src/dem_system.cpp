@@ -1,0 +1,404 @@
+#include "cosim/dem/dem_system.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "cosim/dem/contact/builtin_laws.hpp"
+#include "cosim/dem/parallel.hpp"
+
+namespace cosim::dem {
+
+namespace {
+// What one thread accumulates in the gather loop.
+struct Partial {
+  double dissipated = 0.0, work = 0.0;
+  std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
+};
+
+// One naive particle-triangle contact before Modifications 1 and 2.
+struct MeshCandidate {
+  std::uint32_t triangle;
+  double overlap;
+  Vec3 point, normal;
+  std::array<double, 3> bary;
+};
+}  // namespace
+
+DemSystem::DemSystem() {
+  setContactLaw("hertz", "mindlin", "restitution");
+  setIntegrator("velocity-verlet");
+}
+
+void DemSystem::setContactLaw(const std::string& normal, const std::string& tangential, const std::string& damping) {
+  law_ = std::make_unique<ContactLaw>(normal, tangential, damping);
+  lawNames_ = {normal, tangential, damping};
+}
+
+void DemSystem::setIntegrator(const std::string& name) {
+  integrator_ = IntegratorRegistry::create(name, "integrator");
+  integratorName_ = name;
+}
+
+void DemSystem::initialize() {
+  if (materials.size() == 0) materials.add(Material{});
+  law_->prepare(materials);
+  const std::size_t n = particles.size();
+  planeShear.resize(planes.size());
+  for (auto& s : planeShear) s.resize(n);
+  planeTouch.resize(planes.size());
+  for (std::size_t w = 0; w < planes.size(); ++w) {
+    planeTouch[w].resize(n);
+    for (std::size_t i = 0; i < n; ++i) planeTouch[w][i] = norm2(planeShear[w][i]) > 0.0;
+  }
+  for (auto& m : meshes) {
+    m.validate();
+    m.history.resize(n);
+  }
+  if (bonds.size() > 0) {
+    bonds.index(n);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs(bonds.size());
+    for (std::size_t b = 0; b < bonds.size(); ++b) pairs[b] = {bonds.first[b], bonds.second[b]};
+    neighbors.setExclusions(n, pairs);
+  }
+  neighbors.rowStart.clear();  // force a fresh build
+  computeForces(0.0);
+}
+
+void DemSystem::advance(double dt) {
+  if (cell.enabled) {
+    // The cell and the particles move with the affine field: H <- H + dt L H, x <- x + dt L x.
+    const Mat3& L = cell.velocityGradient;
+    Mat3 dh = mul(L, cell.h);
+    for (std::size_t k = 0; k < 9; ++k) cell.h[k] += dt * dh[k];
+    for (Vec3& x : particles.x) x += dt * mul(L, x);
+  }
+  integrator_->beforeForces(particles, dt);
+  for (auto& w : planes) w.move(dt);
+  for (auto& m : meshes)
+    for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
+  computeForces(dt);
+  integrator_->afterForces(particles, dt);
+  time += dt;
+  ++step;
+}
+
+void DemSystem::computeForces(double dt) {
+  bool rebuild = neighbors.needsRebuild(particles, &cell);
+  for (const auto& m : meshes) rebuild = rebuild || m.movedBeyond(0.5 * neighbors.skin);
+  if (rebuild) {
+    if (cell.enabled) wrapIntoCell();
+    neighbors.build(particles, &cell);
+    pairForce.assign(neighbors.pairs(), {});
+    // Cheng 2022 Alg. 2: each triangle's bounding box, grown by the largest
+    // radius and the skin, picks its candidate particles from the grid.
+    double rmax = 0.0;
+    for (double r : particles.radius) rmax = std::max(rmax, r);
+    const std::size_t n = particles.size();
+    std::vector<std::uint32_t> found;
+    for (auto& m : meshes) {
+      std::vector<std::vector<std::uint32_t>> perParticle(n);
+      for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+        Vec3 lo, hi;
+        m.boundingBox(t, rmax + neighbors.skin, lo, hi);
+        neighbors.particlesInBox(lo, hi, found);
+        const auto& tri = m.triangles[t];
+        for (std::uint32_t i : found) {
+          const ClosestPoint cp = closestPointOnTriangle(particles.x[i], m.vertices[tri[0]], m.vertices[tri[1]],
+                                                         m.vertices[tri[2]]);
+          const double cut = particles.radius[i] + neighbors.skin;
+          if (norm2(particles.x[i] - cp.point) < cut * cut) perParticle[i].push_back(static_cast<std::uint32_t>(t));
+        }
+      }
+      m.candStart.assign(n + 1, 0);
+      m.candTri.clear();
+      for (std::size_t i = 0; i < n; ++i) {
+        m.candTri.insert(m.candTri.end(), perParticle[i].begin(), perParticle[i].end());
+        m.candStart[i + 1] = static_cast<std::uint32_t>(m.candTri.size());
+      }
+      m.markBuilt();
+    }
+  }
+  pairForces(dt);
+  gatherForces(dt);
+  if (bonds.size() > 0) bonds.addForces(particles, cell, particles.f);
+}
+
+void DemSystem::pairForces(double dt) {
+  // Built-in law combinations get a loop with the law calls inlined; any
+  // other (plug-in) combination runs the same loop through the interfaces.
+  const NormalLaw& nl = law_->normal();
+  const TangentialLaw& tl = law_->tangential();
+  if (const auto* hertz = dynamic_cast<const HertzNormal*>(&nl)) {
+    if (const auto* mindlin = dynamic_cast<const MindlinTangential*>(&tl)) return pairLoopFor(*hertz, *mindlin, dt);
+    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return pairLoopFor(*hertz, *none, dt);
+  }
+  if (const auto* linear = dynamic_cast<const LinearSpring*>(&nl)) {
+    if (const auto* lt = dynamic_cast<const LinearTangential*>(&tl)) return pairLoopFor(*linear, *lt, dt);
+    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return pairLoopFor(*linear, *none, dt);
+  }
+  pairLoopFor(nl, tl, dt);
+}
+
+template <class Normal, class Tangential>
+void DemSystem::pairLoopFor(const Normal& normal, const Tangential& tangential, double dt) {
+  if (cell.enabled) pairLoop<true>(normal, tangential, dt);
+  else pairLoop<false>(normal, tangential, dt);
+}
+
+void DemSystem::wrapIntoCell() {
+  const Mat3 hInv = inverse(cell.h);
+  for (Vec3& x : particles.x) {
+    Vec3 s = mul(hInv, x);
+    for (int d = 0; d < 3; ++d) s[d] -= std::floor(s[d]);
+    x = mul(cell.h, s);
+  }
+}
+
+template <bool Periodic, class Normal, class Tangential>
+void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLaw, double dt) {
+  const Particles& p = particles;
+  const std::size_t n = p.size();
+  pairSumF_.resize(n);
+  pairSumT_.resize(n);
+  const int nt = threadCount();
+  std::vector<double> diss(static_cast<std::size_t>(nt), 0.0);
+#pragma omp parallel if (n > kParallelMin)
+  {
+    double local = 0.0;
+#pragma omp for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 xi = p.x[i], vi = p.v[i], wi = p.omega[i];
+      const double ri = p.radius[i];
+      Vec3 fi{}, ti{};
+      for (std::uint32_t k = neighbors.rowStart[i]; k < neighbors.rowStart[i + 1]; ++k) {
+        const std::uint32_t j = neighbors.partner[k];
+        Vec3 d = xi - p.x[j];
+        if constexpr (Periodic) d -= cell.shift(neighbors.image[k]);
+        const double rsum = ri + p.radius[j];
+        const double dist2 = norm2(d);
+        if (dist2 >= rsum * rsum) {
+          if (neighbors.touching[k]) {
+            neighbors.touching[k] = 0;
+            neighbors.shear[k] = {};  // contact lost: history ends
+            pairForce[k] = {};
+          }
+          continue;
+        }
+        const double dist = std::sqrt(dist2);
+        const double overlap = rsum - dist;
+        const Vec3 nrm = (1.0 / dist) * d;  // from j to i
+        const Vec3 ci = -(ri - 0.5 * overlap) * nrm;
+        const Vec3 cj = (p.radius[j] - 0.5 * overlap) * nrm;
+        Vec3 vrel = (vi + cross(wi, ci)) - (p.v[j] + cross(p.omega[j], cj));
+        if constexpr (Periodic) vrel += mul(cell.velocityGradient, d);  // affine part of the relative motion
+        const double rEff = ri * p.radius[j] / rsum;
+        const double mEff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+        const PairMaterial& pm = materials.pair(p.material[i], p.material[j]);
+        double lost = 0.0;
+        Vec3 f = composedForce(normalLaw, tangentialLaw, nrm, overlap, vrel, rEff, mEff, pm, dt, neighbors.shear[k], lost);
+        // Arlequin: contact forces scaled by w at the contact point (Cheng 2022 Eq. 26),
+        // w there taken as the mean of the two particles' weights.
+        const double wc = 0.5 * (p.weight[i] + p.weight[j]);
+        f *= wc;
+        local += wc * lost;
+        neighbors.touching[k] = 1;
+        fi += f;
+        ti += cross(ci, f);
+        pairForce[k] = {f, -cross(cj, f)};
+      }
+      pairSumF_[i] = fi;
+      pairSumT_[i] = ti;
+    }
+    diss[static_cast<std::size_t>(threadIndex())] = local;
+  }
+  for (double v : diss) dissipated += v;
+}
+
+void DemSystem::gatherForces(double dt) {
+  Particles& p = particles;
+  const ContactLaw& law = *law_;
+  const std::size_t n = p.size();
+  const std::size_t nw = planes.size(), nm = meshes.size();
+  std::vector<Partial> partial(static_cast<std::size_t>(threadCount()));
+  for (auto& m : meshes) m.contacts.clear();
+  // Mesh contacts of each particle, compacted into the groups' lists afterwards.
+  std::vector<std::vector<TriangleContact>> meshOut(nm);
+  std::vector<std::uint8_t> meshCount;
+  if (nm > 0) {
+    for (auto& out : meshOut) out.resize(n * TriangleWallGroup::kSlots);
+    meshCount.assign(n * nm, 0);
+  }
+#pragma omp parallel if (n > kParallelMin)
+  {
+    Partial local;
+    local.planeForce.assign(nw, {});
+    local.planeTorque.assign(nw, {});
+    local.meshForce.assign(nm, {});
+    local.meshTorque.assign(nm, {});
+    std::vector<MeshCandidate> cand, kept;
+#pragma omp for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) {
+      const double w = p.weight[i];
+      Vec3 f = (w * p.mass[i]) * gravity + p.fExt[i];  // Cheng 2022 Eq. 26: w scales body force
+      Vec3 t{};
+      {
+        // The row side was summed in the pair loop. Pairs out of contact hold
+        // zeros: summing them is cheaper than a branch.
+        double fx = pairSumF_[i].x, fy = pairSumF_[i].y, fz = pairSumF_[i].z;
+        double tx = pairSumT_[i].x, ty = pairSumT_[i].y, tz = pairSumT_[i].z;
+        const PairForce* pf = pairForce.data();
+        const std::uint32_t* rev = neighbors.revPair.data();
+        for (std::uint32_t r = neighbors.revStart[i]; r < neighbors.revStart[i + 1]; ++r) {
+          const PairForce& q = pf[rev[r]];
+          fx -= q.force.x; fy -= q.force.y; fz -= q.force.z;
+          tx += q.torqueJ.x; ty += q.torqueJ.y; tz += q.torqueJ.z;
+        }
+        f += Vec3{fx, fy, fz};
+        t = {tx, ty, tz};
+      }
+      local.work += dot(p.fExt[i], p.v[i]) * dt;
+      const double ri = p.radius[i];
+      for (std::size_t wl = 0; wl < nw; ++wl) {
+        const PlaneWall& wall = planes[wl];
+        const double overlap = ri - wall.distance(p.x[i]);
+        if (overlap <= 0.0) {
+          if (planeTouch[wl][i]) {  // contact lost: its history ends
+            planeTouch[wl][i] = 0;
+            planeShear[wl][i] = {};
+          }
+          continue;
+        }
+        planeTouch[wl][i] = 1;
+        Vec3& shear = planeShear[wl][i];
+        const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
+        const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
+        double lost = 0.0;
+        Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
+                            dt, shear, lost);
+        fw *= w;
+        local.dissipated += w * lost;
+        local.work += dot(fw, wall.velocity) * dt;
+        f += fw;
+        t += cross(ci, fw);
+        local.planeForce[wl] -= fw;
+        local.planeTorque[wl] -= cross(p.x[i] + ci - wall.point, fw);
+      }
+      for (std::size_t g = 0; g < nm; ++g) {
+        TriangleWallGroup& m = meshes[g];
+        auto& slots = m.history[i];
+        cand.clear();
+        for (std::uint32_t c = m.candStart[i]; c < m.candStart[i + 1]; ++c) {
+          const auto& tri = m.triangles[m.candTri[c]];
+          const ClosestPoint cp =
+              closestPointOnTriangle(p.x[i], m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
+          const Vec3 d = p.x[i] - cp.point;
+          const double dist2 = norm2(d);
+          if (dist2 >= ri * ri || dist2 <= 0.0) continue;
+          const double dist = std::sqrt(dist2);
+          cand.push_back({m.candTri[c], ri - dist, cp.point, (1.0 / dist) * d, cp.bary});
+        }
+        if (cand.empty()) {
+          for (auto& s : slots) s = {};
+          continue;
+        }
+        // Cheng 2022 Alg. 1, Modification 1: largest overlap first; a contact with
+        // a triangle that meets a kept one at a flat or convex angle as seen from
+        // the particle (no vertex of it in front of the kept triangle's plane)
+        // is the same contact seen twice and is dropped. Concave pairs stay.
+        std::sort(cand.begin(), cand.end(), [](const MeshCandidate& a, const MeshCandidate& b) {
+          return a.overlap != b.overlap ? a.overlap > b.overlap : a.triangle < b.triangle;
+        });
+        kept.clear();
+        for (const MeshCandidate& c : cand) {
+          bool same = false;
+          for (const MeshCandidate& k : kept) {
+            const auto& tk = m.triangles[k.triangle];
+            const Vec3& a = m.vertices[tk[0]];
+            Vec3 nk = cross(m.vertices[tk[1]] - a, m.vertices[tk[2]] - a);
+            nk *= (dot(nk, p.x[i] - a) >= 0.0 ? 1.0 : -1.0) / norm(nk);  // towards the particle
+            double front = -1.0;
+            for (std::uint32_t v : m.triangles[c.triangle]) front = std::max(front, dot(m.vertices[v] - a, nk));
+            if (front <= 1e-9 * ri) same = true;
+          }
+          if (!same && kept.size() < static_cast<std::size_t>(TriangleWallGroup::kSlots)) kept.push_back(c);
+        }
+        // Contact history: the main contact carries slot 0 from triangle to
+        // triangle; further (concave) contacts keep theirs by triangle id.
+        std::array<TriangleWallGroup::Slot, TriangleWallGroup::kSlots> next{};
+        for (std::size_t c = 0; c < kept.size(); ++c) {
+          next[c].triangle = kept[c].triangle;
+          if (c == 0) {
+            next[0].shear = slots[0].shear;
+          } else {
+            for (std::size_t s = 1; s < slots.size(); ++s)
+              if (slots[s].triangle == kept[c].triangle) next[c].shear = slots[s].shear;
+          }
+        }
+        std::array<Vec3, TriangleWallGroup::kSlots> fc{};
+        std::array<double, TriangleWallGroup::kSlots> lostc{};
+        double sumF = 0.0;
+        const PairMaterial& pm = materials.pair(p.material[i], m.material);
+        for (std::size_t c = 0; c < kept.size(); ++c) {
+          const auto& tri = m.triangles[kept[c].triangle];
+          const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                          kept[c].bary[2] * m.velocities[tri[2]];
+          const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+          const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
+          fc[c] = law.force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
+          sumF += norm(fc[c]);
+        }
+        slots = next;
+        for (std::size_t c = 0; c < kept.size(); ++c) {
+          // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
+          const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
+          const Vec3 fw = (w * wgt) * fc[c];
+          const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+          const auto& tri = m.triangles[kept[c].triangle];
+          const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                          kept[c].bary[2] * m.velocities[tri[2]];
+          local.dissipated += w * wgt * lostc[c];
+          local.work += dot(fw, vw) * dt;
+          f += fw;
+          t += cross(ci, fw);
+          local.meshForce[g] -= fw;
+          local.meshTorque[g] -= cross(kept[c].point, fw);
+          meshOut[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
+                                                           kept[c].bary, -fw};
+        }
+        meshCount[i * nm + g] = static_cast<std::uint8_t>(kept.size());
+      }
+      if (massDamping > 0.0) {
+        // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
+        const Vec3 fd = (-massDamping * w * p.mass[i]) * p.v[i];
+        const Vec3 td = (-massDamping * w * p.inertia[i]) * p.omega[i];
+        local.dissipated -= (dot(fd, p.v[i]) + dot(td, p.omega[i])) * dt;
+        f += fd;
+        t += td;
+      }
+      p.f[i] = f;
+      p.torque[i] = t;
+    }
+    partial[static_cast<std::size_t>(threadIndex())] = std::move(local);
+  }
+  for (auto& w : planes) w.force = w.torque = {};
+  for (auto& m : meshes) m.force = m.torque = {};
+  for (const Partial& part : partial) {
+    dissipated += part.dissipated;
+    externalWork += part.work;
+    for (std::size_t wl = 0; wl < nw && wl < part.planeForce.size(); ++wl) {
+      planes[wl].force += part.planeForce[wl];
+      planes[wl].torque += part.planeTorque[wl];
+    }
+    for (std::size_t g = 0; g < nm && g < part.meshForce.size(); ++g) {
+      meshes[g].force += part.meshForce[g];
+      meshes[g].torque += part.meshTorque[g];
+    }
+  }
+  for (std::size_t g = 0; g < nm; ++g)
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t c = 0; c < meshCount[i * nm + g]; ++c)
+        meshes[g].contacts.push_back(meshOut[g][i * TriangleWallGroup::kSlots + c]);
+}
+
+}  // namespace cosim::dem

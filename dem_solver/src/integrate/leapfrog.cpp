@@ -1,0 +1,30 @@
+// Leapfrog: velocities live at half steps, v(t+dt/2) = v(t-dt/2) + dt f(t)/m,
+// x(t+dt) = x(t) + dt v(t+dt/2). The forces of step t are those of the
+// previous evaluation, so the whole update happens before the new forces.
+#include "cosim/dem/parallel.hpp"
+#include "cosim/dem/integrate/integrator.hpp"
+
+namespace cosim::dem {
+namespace {
+
+class Leapfrog final : public Integrator {
+ public:
+  void beforeForces(Particles& p, double dt) const override {
+    const std::size_t n = p.size();
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p.driven[i]) continue;
+      const double w = p.weight[i];
+      p.v[i] += (dt * p.invMass[i] / w) * p.f[i];
+      p.omega[i] += (dt * p.invInertia[i] / w) * p.torque[i];
+      p.x[i] += dt * p.v[i];
+      p.q[i] = rotated(p.q[i], dt * p.omega[i]);
+    }
+  }
+  void afterForces(Particles&, double) const override {}
+};
+
+const bool registered = IntegratorRegistry::add("leapfrog", [] { return std::make_unique<Leapfrog>(); });
+
+}  // namespace
+}  // namespace cosim::dem

@@ -1,0 +1,208 @@
+#include "cosim/dem/io/checkpoint.hpp"
+
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+#include <type_traits>
+
+namespace cosim::dem {
+namespace {
+
+constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
+constexpr std::uint32_t kVersion = 5;
+
+class Writer {
+ public:
+  explicit Writer(const std::string& path) : out_(path, std::ios::binary), path_(path) {
+    if (!out_) throw std::runtime_error(path + ": cannot open checkpoint for writing");
+  }
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.write(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    pod(static_cast<std::uint64_t>(v.size()));
+    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+  }
+  void str(const std::string& s) {
+    pod(static_cast<std::uint64_t>(s.size()));
+    out_.write(s.data(), static_cast<std::streamsize>(s.size()));
+  }
+  std::uint64_t finish() {
+    out_.flush();
+    if (!out_) throw std::runtime_error(path_ + ": write failed");
+    return static_cast<std::uint64_t>(out_.tellp());
+  }
+
+ private:
+  std::ofstream out_;
+  std::string path_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::string& path) : in_(path, std::ios::binary), path_(path) {
+    if (!in_) throw std::runtime_error(path + ": cannot open checkpoint");
+  }
+  template <class T>
+  T pod() {
+    T v{};
+    in_.read(reinterpret_cast<char*>(&v), sizeof(T));
+    check();
+    return v;
+  }
+  template <class T>
+  void vec(std::vector<T>& v) {
+    const auto n = pod<std::uint64_t>();
+    if (n > (std::uint64_t{1} << 40) / sizeof(T)) throw std::runtime_error(path_ + ": corrupt checkpoint (array size)");
+    v.resize(n);
+    in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
+    check();
+  }
+  std::string str() {
+    const auto n = pod<std::uint64_t>();
+    if (n > 4096) throw std::runtime_error(path_ + ": corrupt checkpoint (string)");
+    std::string s(n, '\0');
+    in_.read(s.data(), static_cast<std::streamsize>(n));
+    check();
+    return s;
+  }
+
+ private:
+  void check() {
+    if (!in_) throw std::runtime_error(path_ + ": truncated checkpoint");
+  }
+  std::ifstream in_;
+  std::string path_;
+};
+
+template <class IO, class P>
+void particleArrays(IO& io, P& p) {
+  io(p.x); io(p.v); io(p.omega); io(p.q); io(p.f); io(p.torque); io(p.fExt);
+  io(p.radius); io(p.mass); io(p.invMass); io(p.inertia); io(p.invInertia);
+  io(p.weight); io(p.material); io(p.driven); io(p.id);
+}
+
+template <class IO, class N>
+void neighborArrays(IO& io, N& n) {
+  io(n.rowStart); io(n.partner); io(n.shear); io(n.touching); io(n.revStart); io(n.revPair); io(n.xRef);
+}
+
+}  // namespace
+
+std::uint64_t writeCheckpoint(const DemSystem& s, const std::string& path) {
+  Writer w(path);
+  w.pod(kMagic);
+  w.pod(kVersion);
+  for (const auto& name : s.contactLawNames()) w.str(name);
+  w.str(s.integratorName());
+  w.pod(s.time); w.pod(s.step); w.pod(s.dissipated); w.pod(s.externalWork); w.pod(s.gravity);
+  w.pod(static_cast<std::uint64_t>(s.materials.size()));
+  for (const Material& m : s.materials.all()) {
+    w.str(m.name);
+    w.pod(m.density); w.pod(m.young); w.pod(m.poisson); w.pod(m.restitution); w.pod(m.friction); w.pod(m.kn); w.pod(m.kt);
+  }
+  auto io = [&w](const auto& v) { w.vec(v); };
+  particleArrays(io, s.particles);
+  w.pod(s.neighbors.skin);
+  w.pod(s.neighbors.builds);
+  neighborArrays(io, s.neighbors);
+  w.vec(s.neighbors.image);
+  w.pod(s.neighbors.hRef);
+  w.pod(s.cell.enabled);
+  w.pod(s.cell.h);
+  w.pod(s.cell.velocityGradient);
+  w.pod(s.massDamping);
+  w.pod(s.bonds.stiffness);
+  w.vec(s.bonds.first); w.vec(s.bonds.second); w.vec(s.bonds.rest);
+  w.vec(s.bonds.byParticleStart); w.vec(s.bonds.byParticle);
+  w.vec(s.neighbors.exclStart); w.vec(s.neighbors.exclPartner);
+  w.vec(s.pairForce);
+  w.pod(static_cast<std::uint64_t>(s.planes.size()));
+  for (std::size_t k = 0; k < s.planes.size(); ++k) {
+    const PlaneWall& p = s.planes[k];
+    w.str(p.name);
+    w.pod(p.point); w.pod(p.normal); w.pod(p.velocity); w.pod(p.mode); w.pod(p.material);
+    w.pod(p.servoStress); w.pod(p.servoArea); w.pod(p.servoGain); w.pod(p.force); w.pod(p.torque);
+    w.vec(s.planeShear[k]);
+    w.vec(s.planeTouch[k]);
+  }
+  w.pod(static_cast<std::uint64_t>(s.meshes.size()));
+  for (const TriangleWallGroup& m : s.meshes) {
+    w.str(m.name);
+    w.pod(m.material);
+    w.vec(m.vertices); w.vec(m.velocities); w.vec(m.triangles); w.vec(m.candStart); w.vec(m.candTri);
+    w.vec(m.history); w.vec(m.verticesAtBuild()); w.pod(m.force); w.pod(m.torque);
+  }
+  return w.finish();
+}
+
+void readCheckpoint(DemSystem& s, const std::string& path) {
+  Reader r(path);
+  const auto magic = r.pod<std::array<char, 8>>();
+  if (std::memcmp(magic.data(), kMagic, 8) != 0) throw std::runtime_error(path + ": not a dem_solver checkpoint");
+  if (r.pod<std::uint32_t>() != kVersion) throw std::runtime_error(path + ": unsupported checkpoint version");
+  const std::string normal = r.str(), tangential = r.str(), damping = r.str();
+  s.setContactLaw(normal, tangential, damping);
+  s.setIntegrator(r.str());
+  s.time = r.pod<double>(); s.step = r.pod<std::uint64_t>(); s.dissipated = r.pod<double>();
+  s.externalWork = r.pod<double>(); s.gravity = r.pod<Vec3>();
+  s.materials = MaterialTable{};
+  const auto nmat = r.pod<std::uint64_t>();
+  for (std::uint64_t i = 0; i < nmat; ++i) {
+    Material m;
+    m.name = r.str();
+    m.density = r.pod<double>(); m.young = r.pod<double>(); m.poisson = r.pod<double>();
+    m.restitution = r.pod<double>(); m.friction = r.pod<double>(); m.kn = r.pod<double>(); m.kt = r.pod<double>();
+    s.materials.add(m);
+  }
+  s.contactLaw().prepare(s.materials);
+  auto io = [&r](auto& v) { r.vec(v); };
+  particleArrays(io, s.particles);
+  s.neighbors.skin = r.pod<double>();
+  s.neighbors.builds = r.pod<std::uint64_t>();
+  neighborArrays(io, s.neighbors);
+  r.vec(s.neighbors.image);
+  s.neighbors.hRef = r.pod<Mat3>();
+  s.cell.enabled = r.pod<bool>();
+  s.cell.h = r.pod<Mat3>();
+  s.cell.velocityGradient = r.pod<Mat3>();
+  s.massDamping = r.pod<double>();
+  s.bonds.stiffness = r.pod<double>();
+  r.vec(s.bonds.first); r.vec(s.bonds.second); r.vec(s.bonds.rest);
+  r.vec(s.bonds.byParticleStart); r.vec(s.bonds.byParticle);
+  r.vec(s.neighbors.exclStart); r.vec(s.neighbors.exclPartner);
+  r.vec(s.pairForce);
+  s.planes.resize(r.pod<std::uint64_t>());
+  s.planeShear.resize(s.planes.size());
+  s.planeTouch.resize(s.planes.size());
+  for (std::size_t k = 0; k < s.planes.size(); ++k) {
+    PlaneWall& p = s.planes[k];
+    p.name = r.str();
+    p.point = r.pod<Vec3>(); p.normal = r.pod<Vec3>(); p.velocity = r.pod<Vec3>(); p.mode = r.pod<PlaneWall::Mode>();
+    p.material = r.pod<std::uint16_t>(); p.servoStress = r.pod<double>(); p.servoArea = r.pod<double>();
+    p.servoGain = r.pod<double>(); p.force = r.pod<Vec3>(); p.torque = r.pod<Vec3>();
+    r.vec(s.planeShear[k]);
+    r.vec(s.planeTouch[k]);
+  }
+  s.meshes.resize(r.pod<std::uint64_t>());
+  for (TriangleWallGroup& m : s.meshes) {
+    m.name = r.str();
+    m.material = r.pod<std::uint16_t>();
+    r.vec(m.vertices); r.vec(m.velocities); r.vec(m.triangles); r.vec(m.candStart); r.vec(m.candTri);
+    r.vec(m.history);
+    std::vector<Vec3> ref;
+    r.vec(ref);
+    m.setVerticesAtBuild(std::move(ref));
+    m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
+  }
+  const std::size_t n = s.particles.size();
+  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size())
+    throw std::runtime_error(path + ": inconsistent checkpoint (neighbour list does not match particles)");
+}
+
+}  // namespace cosim::dem

@@ -1,0 +1,137 @@
+#include "cosim/dem/measure/measures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace cosim::dem {
+
+Energies energies(const DemSystem& s) {
+  const Particles& p = s.particles;
+  const ContactLaw& law = s.contactLaw();
+  Energies e;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    e.translational += 0.5 * p.weight[i] * p.mass[i] * norm2(p.v[i]);
+    e.rotational += 0.5 * p.weight[i] * p.inertia[i] * norm2(p.omega[i]);
+    e.potential -= p.weight[i] * p.mass[i] * dot(s.gravity, p.x[i]);
+  }
+  const auto& nl = s.neighbors;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double rsum = p.radius[i] + p.radius[j];
+      const double overlap = rsum - norm(s.pairVector(i, k));
+      if (overlap <= 0.0) continue;
+      const double wc = 0.5 * (p.weight[i] + p.weight[j]);
+      e.elastic += wc * law.energy(overlap, p.radius[i] * p.radius[j] / rsum,
+                                   s.materials.pair(p.material[i], p.material[j]), nl.shear[k]);
+    }
+  for (std::size_t w = 0; w < s.planes.size(); ++w)
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double overlap = p.radius[i] - s.planes[w].distance(p.x[i]);
+      if (overlap > 0.0)
+        e.elastic += p.weight[i] * law.energy(overlap, p.radius[i], s.materials.pair(p.material[i], s.planes[w].material),
+                                              s.planeShear[w][i]);
+    }
+  e.elastic += s.bonds.energy(p, s.cell);
+  e.dissipated = s.dissipated;
+  e.externalWork = s.externalWork;
+  return e;
+}
+
+double coordinationNumber(const DemSystem& s) {
+  if (s.particles.size() == 0) return 0.0;
+  std::size_t c = 0;
+  for (std::uint8_t t : s.neighbors.touching) c += t;
+  return 2.0 * static_cast<double>(c) / static_cast<double>(s.particles.size());
+}
+
+std::array<double, 9> loveWeberStress(const DemSystem& s, double volume) {
+  const Particles& p = s.particles;
+  std::array<double, 9> sig{};
+  auto add = [&sig](const Vec3& a, const Vec3& b, double scale) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) sig[static_cast<std::size_t>(3 * r + c)] += scale * a[r] * b[c];
+  };
+  const auto& nl = s.neighbors;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k)
+      if (nl.touching[k]) add(s.pairForce[k].force, s.pairVector(i, k), -1.0);
+    add(p.v[i], p.v[i], -p.weight[i] * p.mass[i]);  // kinetic (Reynolds) part
+  }
+  for (double& v : sig) v /= volume;
+  return sig;
+}
+
+double solidVolume(const DemSystem& s) {
+  double v = 0.0;
+  for (double r : s.particles.radius) v += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  return v;
+}
+
+double criticalTimeStep(const DemSystem& s) {
+  const Particles& p = s.particles;
+  if (p.size() == 0) return 0.0;
+  const NormalLaw& normal = s.contactLaw().normal();
+  double vmax = 0.0;
+  for (const Vec3& v : p.v) vmax = std::max(vmax, norm(v));
+  for (const auto& w : s.planes) vmax = std::max(vmax, norm(w.velocity));
+  double dt = std::numeric_limits<double>::max();
+  const std::size_t nmat = s.materials.size();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const std::uint16_t a = p.material[i];
+    // Lightest pairing: this particle against an equal one (m* = m/2).
+    const double mEff = 0.5 * p.mass[i] * p.weight[i];
+    for (std::size_t b = 0; b < nmat; ++b) {
+      const PairMaterial& pm = s.materials.pair(a, static_cast<std::uint16_t>(b));
+      if (normal.isHertz()) {
+        // Rayleigh wave step (Li et al. 2005): pi R sqrt(rho/G) / (0.1631 nu + 0.8766).
+        const Material& m = s.materials[a];
+        const double rayleigh = std::numbers::pi * p.radius[i] * std::sqrt(m.density / m.shearModulus()) /
+                                (0.1631 * m.poisson + 0.8766);
+        dt = std::min(dt, rayleigh);
+        if (vmax > 0.0)
+          dt = std::min(dt, normal.contactTime(mEff, 0.5 * p.radius[i], 2.0 * vmax, pm) / std::numbers::pi);
+      } else if (pm.kn > 0.0) {
+        dt = std::min(dt, std::sqrt(mEff / pm.kn));
+      }
+    }
+  }
+  return dt == std::numeric_limits<double>::max() ? 0.0 : dt;
+}
+
+}  // namespace cosim::dem
+
+namespace cosim::dem {
+
+double unbalancedForceIndex(const DemSystem& s) {
+  const Particles& p = s.particles;
+  double num = 0.0, den = 0.0;
+  std::size_t contacts = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.driven[i]) continue;
+    const Vec3 unbalanced = p.f[i] + (s.massDamping * p.weight[i] * p.mass[i]) * p.v[i];
+    num += norm2(unbalanced);
+  }
+  for (std::size_t k = 0; k < s.neighbors.pairs(); ++k)
+    if (s.neighbors.touching[k]) {
+      den += norm2(s.pairForce[k].force);
+      ++contacts;
+    }
+  if (contacts == 0 || den == 0.0) return 0.0;
+  return std::sqrt(num / static_cast<double>(p.size())) / std::sqrt(den / static_cast<double>(contacts));
+}
+
+long relax(DemSystem& s, double dt, double tolerance, long maxSteps, long every) {
+  long steps = 0;
+  while (steps < maxSteps) {
+    for (long k = 0; k < every; ++k) s.advance(dt);
+    steps += every;
+    const double index = unbalancedForceIndex(s);
+    if (index > 0.0 && index < tolerance) break;
+  }
+  return steps;
+}
+
+}  // namespace cosim::dem

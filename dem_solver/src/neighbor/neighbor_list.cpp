@@ -1,0 +1,278 @@
+#include "cosim/dem/parallel.hpp"
+#include "cosim/dem/neighbor/neighbor_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace cosim::dem {
+
+bool NeighborList::needsRebuild(const Particles& p, const PeriodicCell* cell) const {
+  const std::size_t n = p.size();
+  if (xRef.size() != n || rowStart.size() != n + 1) return true;
+  if (cell && cell->enabled) {
+    // Affine motion does not change fractional coordinates; the fluctuation is
+    // H (s - s_ref), and the deformation since the build changes a pair
+    // distance by at most |H H_ref^-1 - I| times the cut-off.
+    const Mat3 f = mul(cell->h, inverse(hRef));
+    double strain = 0.0;
+    for (int k = 0; k < 9; ++k) strain += (f[static_cast<std::size_t>(k)] - (k % 4 == 0 ? 1.0 : 0.0)) *
+                                          (f[static_cast<std::size_t>(k)] - (k % 4 == 0 ? 1.0 : 0.0));
+    double rmax = 0.0;
+    for (double r : p.radius) rmax = std::max(rmax, r);
+    // A pair may approach by |du_i| + |du_j| + |F - I| d <= skin: each particle gets half of what is left.
+    const double budget = skin - std::sqrt(strain) * (2.0 * rmax + skin);
+    if (budget <= 0.0) return true;
+    bool rebuild = false;
+#pragma omp parallel for schedule(static) reduction(|| : rebuild) if (n > kParallelMin)
+    for (std::size_t i = 0; i < n; ++i)
+      if (norm2(p.x[i] - mul(cell->h, xRef[i])) > 0.25 * budget * budget)
+        rebuild = true;
+    return rebuild;
+  }
+  const double limit = 0.25 * skin * skin;  // (skin/2)^2: two particles may approach by skin
+  bool rebuild = false;
+#pragma omp parallel for schedule(static) reduction(|| : rebuild) if (n > kParallelMin)
+  for (std::size_t i = 0; i < n; ++i)
+    if (norm2(p.x[i] - xRef[i]) > limit) rebuild = true;
+  return rebuild;
+}
+
+void NeighborList::binParticles(const Particles& p, double cell) {
+  const std::size_t n = p.size();
+  Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+          std::numeric_limits<double>::max()};
+  Vec3 hi = -lo;
+  for (const Vec3& x : p.x)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], x[d]);
+      hi[d] = std::max(hi[d], x[d]);
+    }
+  // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
+  // Cap the cell count near 2N so a sparse, wide cloud cannot exhaust memory.
+  for (;;) {
+    std::size_t total = 1;
+    for (int d = 0; d < 3; ++d) {
+      dims_[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / cell)) + 1);
+      total *= static_cast<std::size_t>(dims_[d]);
+    }
+    if (total <= 2 * n + 64) break;
+    cell *= 1.26;
+  }
+  lo_ = lo;
+  cell_ = cell;
+  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  cellStart_.assign(ncell + 1, 0);
+  cellOf_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    int c[3];
+    for (int d = 0; d < 3; ++d)
+      c[d] = std::min(dims_[d] - 1, static_cast<int>((p.x[i][d] - lo[d]) / cell));
+    cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
+    ++cellStart_[cellOf_[i] + 1];
+  }
+  for (std::size_t c = 0; c < ncell; ++c) cellStart_[c + 1] += cellStart_[c];
+  cellItems_.resize(n);
+  std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) cellItems_[fill[cellOf_[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+template <class Visit>
+void NeighborList::forCandidates(const Particles& p, std::size_t i, Visit&& visit) const {
+  const std::uint32_t c = cellOf_[i];
+  const int cx = static_cast<int>(c % static_cast<std::uint32_t>(dims_[0]));
+  const int cy = static_cast<int>((c / static_cast<std::uint32_t>(dims_[0])) % static_cast<std::uint32_t>(dims_[1]));
+  const int cz = static_cast<int>(c / static_cast<std::uint32_t>(dims_[0] * dims_[1]));
+  const Vec3 xi = p.x[i];
+  const double ri = p.radius[i] + skin;
+  for (int z = std::max(0, cz - 1); z <= std::min(dims_[2] - 1, cz + 1); ++z)
+    for (int y = std::max(0, cy - 1); y <= std::min(dims_[1] - 1, cy + 1); ++y)
+      for (int x = std::max(0, cx - 1); x <= std::min(dims_[0] - 1, cx + 1); ++x) {
+        const std::size_t cell = static_cast<std::size_t>(x + dims_[0] * (y + dims_[1] * z));
+        for (std::uint32_t s = cellStart_[cell]; s < cellStart_[cell + 1]; ++s) {
+          const std::uint32_t j = cellItems_[s];
+          if (j <= i) continue;
+          const double cut = ri + p.radius[j];
+          if (norm2(xi - p.x[j]) < cut * cut) visit(j);
+        }
+      }
+}
+
+void NeighborList::particlesInBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out) const {
+  out.clear();
+  if (cellStart_.empty()) return;
+  int a[3], b[3];
+  for (int d = 0; d < 3; ++d) {
+    const double fa = std::floor((lo[d] - lo_[d]) / cell_), fb = std::floor((hi[d] - lo_[d]) / cell_);
+    if (fb < 0.0 || fa > dims_[d] - 1) return;
+    a[d] = std::max(0, static_cast<int>(fa));
+    b[d] = std::min(dims_[d] - 1, static_cast<int>(fb));
+  }
+  for (int z = a[2]; z <= b[2]; ++z)
+    for (int y = a[1]; y <= b[1]; ++y)
+      for (int x = a[0]; x <= b[0]; ++x) {
+        const std::size_t c = static_cast<std::size_t>(x + dims_[0] * (y + dims_[1] * z));
+        out.insert(out.end(), cellItems_.begin() + cellStart_[c], cellItems_.begin() + cellStart_[c + 1]);
+      }
+}
+
+void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, double size) {
+  const std::size_t n = p.size();
+  for (int d = 0; d < 3; ++d) {
+    const double w = cell.width(d);
+    if (size > 0.5 * w)
+      throw std::invalid_argument("periodic cell too small: width " + std::to_string(w) +
+                                  " m is less than twice the contact cut-off " + std::to_string(size) + " m");
+    dims_[d] = std::max(1, static_cast<int>(std::floor(w / size)));
+  }
+  const Mat3 hInv = inverse(cell.h);
+  frac_.resize(n);
+  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  cellStart_.assign(ncell + 1, 0);
+  cellOf_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    frac_[i] = mul(hInv, p.x[i]);
+    int c[3];
+    for (int d = 0; d < 3; ++d)
+      c[d] = std::clamp(static_cast<int>(std::floor(frac_[i][d] * dims_[d])), 0, dims_[d] - 1);
+    cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
+    ++cellStart_[cellOf_[i] + 1];
+  }
+  for (std::size_t c = 0; c < ncell; ++c) cellStart_[c + 1] += cellStart_[c];
+  cellItems_.resize(n);
+  std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) cellItems_[fill[cellOf_[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+template <class Visit>
+void NeighborList::forPeriodicCandidates(const Particles& p, const PeriodicCell& cell, std::size_t i,
+                                         Visit&& visit) const {
+  const std::uint32_t c = cellOf_[i];
+  const int cc[3] = {static_cast<int>(c % static_cast<std::uint32_t>(dims_[0])),
+                     static_cast<int>((c / static_cast<std::uint32_t>(dims_[0])) % static_cast<std::uint32_t>(dims_[1])),
+                     static_cast<int>(c / static_cast<std::uint32_t>(dims_[0] * dims_[1]))};
+  const Vec3 xi = p.x[i];
+  const double ri = p.radius[i] + skin;
+  // Visit each (cell, image) once: with fewer than 3 cells along an axis the
+  // offsets -1, 0, +1 reach the same cell through different images.
+  for (int oz = -1; oz <= 1; ++oz)
+    for (int oy = -1; oy <= 1; ++oy)
+      for (int ox = -1; ox <= 1; ++ox) {
+        const int off[3] = {ox, oy, oz};
+        int cell3[3];
+        std::array<std::int8_t, 3> img{};
+        for (int d = 0; d < 3; ++d) {
+          int v = cc[d] + off[d];
+          img[static_cast<std::size_t>(d)] = static_cast<std::int8_t>(v < 0 ? -1 : (v >= dims_[d] ? 1 : 0));
+          v -= img[static_cast<std::size_t>(d)] * dims_[d];
+          cell3[d] = v;
+        }
+        const Vec3 shift = cell.shift(img);
+        const std::size_t idx = static_cast<std::size_t>(cell3[0] + dims_[0] * (cell3[1] + dims_[1] * cell3[2]));
+        for (std::uint32_t s = cellStart_[idx]; s < cellStart_[idx + 1]; ++s) {
+          const std::uint32_t j = cellItems_[s];
+          if (j <= i) continue;
+          const double cut = ri + p.radius[j];
+          if (norm2(xi - p.x[j] - shift) < cut * cut) visit(j, img);
+        }
+      }
+}
+
+void NeighborList::build(const Particles& p, const PeriodicCell* cell) {
+  double rmax = 0.0;
+  for (double r : p.radius) rmax = std::max(rmax, r);
+  const bool periodic = cell && cell->enabled;
+  if (periodic) {
+    binPeriodic(p, *cell, std::max(2.0 * rmax + skin, 1e-300));
+    buildRows(p, [&](std::size_t i, auto&& visit) { forPeriodicCandidates(p, *cell, i, visit); }, true);
+    xRef = frac_;
+    hRef = cell->h;
+  } else {
+    binParticles(p, std::max(2.0 * rmax + skin, 1e-300));
+    buildRows(p, [&](std::size_t i, auto&& visit) {
+      forCandidates(p, i, [&](std::uint32_t j) { visit(j, std::array<std::int8_t, 3>{}); });
+    }, false);
+    xRef = p.x;
+  }
+  ++builds;
+}
+
+void NeighborList::setExclusions(std::size_t n, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs) {
+  exclStart.assign(n + 1, 0);
+  for (const auto& [a, b] : pairs) ++exclStart[std::min(a, b) + 1];
+  for (std::size_t i = 0; i < n; ++i) exclStart[i + 1] += exclStart[i];
+  exclPartner.resize(pairs.size());
+  std::vector<std::uint32_t> fill(exclStart.begin(), exclStart.end() - 1);
+  for (const auto& [a, b] : pairs) exclPartner[fill[std::min(a, b)]++] = std::max(a, b);
+  for (std::size_t i = 0; i < n; ++i) std::sort(exclPartner.begin() + exclStart[i], exclPartner.begin() + exclStart[i + 1]);
+  rowStart.clear();  // the next step rebuilds
+}
+
+template <class Candidates>
+void NeighborList::buildRows(const Particles& p, Candidates&& allCandidates, bool periodic) {
+  const std::size_t n = p.size();
+  const bool excluding = exclStart.size() == n + 1;
+  auto candidates = [&](std::size_t i, auto&& visit) {
+    allCandidates(i, [&](std::uint32_t j, const std::array<std::int8_t, 3>& im) {
+      if (excluding && std::binary_search(exclPartner.begin() + exclStart[i], exclPartner.begin() + exclStart[i + 1], j))
+        return;
+      visit(j, im);
+    });
+  };
+
+  // Two passes (count, then fill) keep the build parallel and the order fixed.
+  std::vector<std::uint32_t> start(n + 1, 0);
+#pragma omp parallel for schedule(dynamic, 256) if (n > kParallelMin)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t count = 0;
+    candidates(i, [&](std::uint32_t, const std::array<std::int8_t, 3>&) { ++count; });
+    start[i + 1] = count;
+  }
+  for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+  std::vector<std::uint32_t> part(start[n]);
+  std::vector<Vec3> hist(start[n]);
+  std::vector<std::uint8_t> touch(start[n], 0);
+  std::vector<std::array<std::int8_t, 3>> img(periodic ? start[n] : 0);
+  const bool carry = rowStart.size() == n + 1;
+#pragma omp parallel for schedule(dynamic, 256) if (n > kParallelMin)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t k = start[i];
+    static thread_local std::vector<std::pair<std::uint32_t, std::array<std::int8_t, 3>>> row;
+    row.clear();
+    candidates(i, [&](std::uint32_t j, const std::array<std::int8_t, 3>& im) { row.emplace_back(j, im); });
+    // Rows are short: sort them (deterministic order independent of cell
+    // layout) and carry each pair's history over from the old row.
+    std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [j, im] : row) {
+      if (periodic) img[k] = im;
+      part[k++] = j;
+    }
+    if (!carry) continue;
+    std::uint32_t o = rowStart[i];
+    for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
+      while (o < rowStart[i + 1] && partner[o] < part[m]) ++o;
+      if (o < rowStart[i + 1] && partner[o] == part[m]) {
+        hist[m] = shear[o];
+        touch[m] = touching[o];
+      }
+    }
+  }
+  rowStart = std::move(start);
+  partner = std::move(part);
+  shear = std::move(hist);
+  touching = std::move(touch);
+  image = std::move(img);
+
+  revStart.assign(n + 1, 0);
+  for (std::uint32_t j : partner) ++revStart[j + 1];
+  for (std::size_t i = 0; i < n; ++i) revStart[i + 1] += revStart[i];
+  revPair.resize(partner.size());
+  std::vector<std::uint32_t> fill(revStart.begin(), revStart.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t k = rowStart[i]; k < rowStart[i + 1]; ++k) revPair[fill[partner[k]]++] = k;
+}
+
+}  // namespace cosim::dem

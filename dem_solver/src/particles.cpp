@@ -1,0 +1,40 @@
+#include "cosim/dem/particles.hpp"
+
+#include <numbers>
+
+namespace cosim::dem {
+
+std::size_t Particles::add(const Vec3& position, double r, double density, std::uint16_t materialId) {
+  const double m = 4.0 / 3.0 * std::numbers::pi * r * r * r * density;
+  const double inert = 0.4 * m * r * r;  // solid sphere: I = 2/5 m r^2
+  x.push_back(position);
+  v.push_back({});
+  omega.push_back({});
+  q.push_back({});
+  f.push_back({});
+  torque.push_back({});
+  fExt.push_back({});
+  radius.push_back(r);
+  mass.push_back(m);
+  invMass.push_back(1.0 / m);
+  inertia.push_back(inert);
+  invInertia.push_back(1.0 / inert);
+  weight.push_back(1.0);
+  material.push_back(materialId);
+  driven.push_back(0);
+  id.push_back(static_cast<std::uint32_t>(id.size()));
+  return radius.size() - 1;
+}
+
+void Particles::reserve(std::size_t n) {
+  x.reserve(n); v.reserve(n); omega.reserve(n); q.reserve(n); f.reserve(n); torque.reserve(n);
+  fExt.reserve(n); radius.reserve(n); mass.reserve(n); invMass.reserve(n); inertia.reserve(n);
+  invInertia.reserve(n); weight.reserve(n); material.reserve(n); driven.reserve(n); id.reserve(n);
+}
+
+void Particles::clearForces() {
+  for (auto& a : f) a = {};
+  for (auto& a : torque) a = {};
+}
+
+}  // namespace cosim::dem

@@ -1,0 +1,298 @@
+#include "cosim/dem/solver/dem_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "cosim/dem/io/checkpoint.hpp"
+#include "cosim/dem/measure/measures.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::dem {
+namespace {
+
+using wire::SolverError;
+using Code = proto::Error::Code;
+
+const std::vector<std::string> kFieldNames{"positions", "velocities", "angular_velocities", "orientations",
+                                           "forces", "radii", "masses", "ids", "energies", "coordination",
+                                           "plane_wall_forces", "stress", "unbalanced_force_index",
+                                           "porosity"};
+
+std::vector<double> flat(const std::vector<Vec3>& v) {
+  std::vector<double> out(3 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int d = 0; d < 3; ++d) out[3 * i + static_cast<std::size_t>(d)] = v[i][d];
+  return out;
+}
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+wire::SolverInfo DemSolver::info() const {
+  wire::SolverInfo i;
+  i.kind = "dem";
+  i.version = "0.1.0";
+  i.capabilities = wire::baseCapabilities();
+  for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
+                        "driven-particles", "critical-dt", "energies", "hdf5-snapshots"})
+    i.capabilities.emplace_back(c);
+  return i;
+}
+
+void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Builder outputs) {
+  sceneFile_ = context.sceneFile.empty() ? std::string("<scene>") : context.sceneFile;
+  instance_ = context.instance;
+  runDir_ = context.runDir;
+  system_ = DemSystem{};
+  settings_ = RunSettings{};
+  try {
+    const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
+    configure(params, sceneFile_, system_, settings_);
+    system_.initialize();
+    checkParticles(system_, settings_.overlapTolerance, sceneFile_ + ": solver '" + instance_ + "'");
+  } catch (const SolverError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw SolverError(Code::BAD_INPUT, e.what());
+  }
+  applyInputs(context.inputs);
+  if (settings_.dt > 0.0) checkDt(settings_.dt, sceneFile_ + ": solver '" + instance_ + "': params.dt");
+  if (settings_.snapshotEvery > 0) {
+    std::filesystem::path file = settings_.snapshotFile.empty() ? instance_ + ".h5" : settings_.snapshotFile;
+    if (file.is_relative() && !runDir_.empty()) file = std::filesystem::path(runDir_) / file;
+    try {
+      snapshots_ = std::make_unique<SnapshotWriter>(file.string());
+      snapshots_->write(system_);
+    } catch (const std::exception& e) {
+      throw SolverError(Code::BAD_INPUT, std::string("snapshots: ") + e.what());
+    }
+  }
+  ready_ = true;
+  fillOutputs(outputs);
+}
+
+double DemSolver::criticalDt() const { return criticalTimeStep(system_); }
+
+void DemSolver::checkDt(double dt, const std::string& where) {
+  const double crit = criticalDt();
+  if (crit > 0.0 && dt > crit && !settings_.force)
+    throw SolverError(Code::BAD_INPUT, where + ": dt = " + num(dt) + " s is above the critical step " + num(crit) +
+                                           " s (contact law " + system_.contactLaw().name() +
+                                           "); lower dt or set params.force: true");
+  checkedDt_ = dt;
+}
+
+void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
+  Particles& p = system_.particles;
+  // Forces on particles from a coupling (CouplingForces, target particles).
+  for (auto f : inputs.getForces()) {
+    if (f.getTarget() != proto::CouplingForces::Target::PARTICLES) continue;
+    const auto ids = wire::view(f.getIds());
+    const auto values = wire::view(f.getForces());
+    if (values.size() != 3 * ids.size())
+      throw SolverError(Code::BAD_INPUT, "forces for zone '" + std::string(f.getZone().cStr()) + "': " +
+                                             std::to_string(values.size()) + " values for " +
+                                             std::to_string(ids.size()) + " ids");
+    for (auto& e : p.fExt) e = {};
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      if (ids[k] >= p.size())
+        throw SolverError(Code::BAD_INPUT, "forces: particle id " + std::to_string(ids[k]) + " does not exist");
+      p.fExt[ids[k]] = {values[3 * k], values[3 * k + 1], values[3 * k + 2]};
+    }
+  }
+  // Driven particles: kinematics from outside.
+  for (auto s : inputs.getParticles()) {
+    const auto ids = wire::view(s.getIds());
+    const auto x = wire::view(s.getPositions());
+    const auto v = wire::view(s.getVelocities());
+    if (x.size() != 3 * ids.size() || (!v.empty() && v.size() != 3 * ids.size()))
+      throw SolverError(Code::BAD_INPUT, "particle states for zone '" + std::string(s.getZone().cStr()) +
+                                             "': arrays must hold 3 values per id");
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      if (ids[k] >= p.size())
+        throw SolverError(Code::BAD_INPUT, "particle states: particle id " + std::to_string(ids[k]) + " does not exist");
+      p.driven[ids[k]] = 1;
+      p.x[ids[k]] = {x[3 * k], x[3 * k + 1], x[3 * k + 2]};
+      if (!v.empty()) p.v[ids[k]] = {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+    }
+  }
+  // Moving triangle meshes (a coupled FE surface).
+  for (auto m : inputs.getMeshes()) {
+    const std::string name = m.getSurface().cStr();
+    TriangleWallGroup* group = nullptr;
+    for (auto& g : system_.meshes)
+      if (g.name == name) group = &g;
+    if (!group) {
+      system_.meshes.emplace_back();
+      group = &system_.meshes.back();
+      group->name = name;
+      group->history.resize(p.size());
+    }
+    const auto x = wire::view(m.getPositions());
+    const auto v = wire::view(m.getVelocities());
+    const auto t = wire::view(m.getTriangles());
+    if (x.size() % 3 != 0 || (!v.empty() && v.size() != x.size()) || t.size() % 3 != 0)
+      throw SolverError(Code::BAD_INPUT, "mesh '" + name + "': positions/velocities/triangles not in triples");
+    group->vertices.resize(x.size() / 3);
+    group->velocities.assign(x.size() / 3, {});
+    for (std::size_t k = 0; k < x.size() / 3; ++k) {
+      group->vertices[k] = {x[3 * k], x[3 * k + 1], x[3 * k + 2]};
+      if (!v.empty()) group->velocities[k] = {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+    }
+    if (!t.empty()) {
+      group->triangles.resize(t.size() / 3);
+      for (std::size_t k = 0; k < t.size() / 3; ++k) group->triangles[k] = {t[3 * k], t[3 * k + 1], t[3 * k + 2]};
+    }
+    try {
+      group->validate();
+    } catch (const std::exception& e) {
+      throw SolverError(Code::BAD_INPUT, e.what());
+    }
+  }
+}
+
+void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData::Builder outputs) {
+  if (!ready_) throw SolverError(Code::UNEXPECTED, "advance before setup");
+  if (request.steps == 0) throw SolverError(Code::BAD_INPUT, "advance: steps must be at least 1");
+  if (!(request.dt > 0.0) || !std::isfinite(request.dt))
+    throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + num(request.dt));
+  if (request.dt != checkedDt_) checkDt(request.dt, "advance (exchange " + std::to_string(request.exchange) + ")");
+  applyInputs(request.inputs);
+  for (std::uint32_t s = 0; s < request.steps; ++s) {
+    system_.advance(request.dt);
+    if (snapshots_ && system_.step % static_cast<std::uint64_t>(settings_.snapshotEvery) == 0) snapshots_->write(system_);
+  }
+  checkFinite();
+  fillOutputs(outputs);
+}
+
+void DemSolver::checkFinite() const {
+  const Particles& p = system_.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(p.x[i][d]) || !std::isfinite(p.v[i][d]))
+        throw SolverError(Code::SOLVER_FAILURE, "step " + std::to_string(system_.step) + ": particle " +
+                                                    std::to_string(p.id[i]) + " has a non-finite " +
+                                                    (std::isfinite(p.x[i][d]) ? "velocity" : "position") +
+                                                    " (dt too large or contact law unstable)");
+}
+
+void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
+  if (system_.meshes.empty()) return;
+  auto lists = outputs.initContacts(static_cast<unsigned>(system_.meshes.size()));
+  for (std::size_t g = 0; g < system_.meshes.size(); ++g) {
+    const TriangleWallGroup& m = system_.meshes[g];
+    auto l = lists[static_cast<unsigned>(g)];
+    l.setSurface(m.name);
+    const auto n = static_cast<unsigned>(m.contacts.size());
+    auto tri = wire::view(l.initTriangleIds(n));
+    auto part = wire::view(l.initParticleIds(n));
+    auto bary = wire::view(l.initBarycentric(3 * n));
+    auto pts = wire::view(l.initPoints(3 * n));
+    auto frc = wire::view(l.initForces(3 * n));
+    for (unsigned c = 0; c < n; ++c) {
+      const TriangleContact& k = m.contacts[c];
+      tri[c] = k.triangle;
+      part[c] = system_.particles.id[k.particle];
+      Vec3 point;
+      for (int v = 0; v < 3; ++v) {
+        bary[3 * c + static_cast<unsigned>(v)] = k.bary[static_cast<std::size_t>(v)];
+        point += k.bary[static_cast<std::size_t>(v)] * m.vertices[m.triangles[k.triangle][static_cast<std::size_t>(v)]];
+      }
+      for (int d = 0; d < 3; ++d) {
+        pts[3 * c + static_cast<unsigned>(d)] = point[d];
+        frc[3 * c + static_cast<unsigned>(d)] = k.force[d];
+      }
+    }
+  }
+}
+
+void DemSolver::fields(const std::vector<std::string>& requested, proto::CouplingData::Builder out) {
+  std::vector<std::string> names = requested;
+  if (names.empty())  // everything this state offers
+    for (const auto& n : kFieldNames)
+      if (system_.cell.enabled || (n != "stress" && n != "porosity")) names.push_back(n);
+  for (const auto& n : names)
+    if (std::find(kFieldNames.begin(), kFieldNames.end(), n) == kFieldNames.end()) {
+      std::string known;
+      for (const auto& k : kFieldNames) known += (known.empty() ? "" : ", ") + k;
+      throw SolverError(Code::BAD_INPUT, "unknown field '" + n + "' (dem offers: " + known + ")");
+    }
+  const Particles& p = system_.particles;
+  auto arrays = out.initArrays(static_cast<unsigned>(names.size()));
+  for (unsigned k = 0; k < names.size(); ++k) {
+    const std::string& n = names[k];
+    std::vector<double> v;
+    std::uint32_t comps = 1;
+    if (n == "positions") v = flat(p.x), comps = 3;
+    else if (n == "velocities") v = flat(p.v), comps = 3;
+    else if (n == "angular_velocities") v = flat(p.omega), comps = 3;
+    else if (n == "forces") v = flat(p.f), comps = 3;
+    else if (n == "orientations") {
+      comps = 4;
+      for (const Quat& q : p.q) v.insert(v.end(), {q.w, q.x, q.y, q.z});
+    } else if (n == "radii") v = p.radius;
+    else if (n == "masses") v = p.mass;
+    else if (n == "ids") v.assign(p.id.begin(), p.id.end());
+    else if (n == "coordination") v = {coordinationNumber(system_)};
+    else if (n == "plane_wall_forces") {
+      comps = 3;
+      for (const auto& w : system_.planes) v.insert(v.end(), {w.force.x, w.force.y, w.force.z});
+    } else if (n == "stress" || n == "porosity") {
+      // Love-Weber stress and porosity need a reference volume: the periodic cell.
+      if (!system_.cell.enabled)
+        throw SolverError(Code::BAD_INPUT, "field '" + n + "' needs a periodic cell (params.periodic)");
+      const double volume = system_.cell.volume();
+      if (n == "stress") {
+        const auto sig = loveWeberStress(system_, volume);
+        v.assign(sig.begin(), sig.end());
+        comps = 9;
+      } else {
+        v = {1.0 - solidVolume(system_) / volume};
+      }
+    } else if (n == "unbalanced_force_index") {
+      v = {unbalancedForceIndex(system_)};
+    } else {  // energies
+      for (const auto& [name, value] : energies()) v.push_back(value);
+      comps = static_cast<std::uint32_t>(v.size());
+    }
+    wire::addArray(arrays, k, n, comps, v);
+  }
+}
+
+wire::NamedValues DemSolver::energies() const {
+  const Energies e = dem::energies(system_);
+  return {{"kinetic", e.kinetic()},           {"translational", e.translational}, {"rotational", e.rotational},
+          {"elastic", e.elastic},             {"potential", e.potential},         {"dissipated", e.dissipated},
+          {"external_work", e.externalWork}};
+}
+
+std::uint64_t DemSolver::checkpoint(const std::string& path) {
+  try {
+    return writeCheckpoint(system_, path);
+  } catch (const std::exception& e) {
+    throw SolverError(Code::SOLVER_FAILURE, e.what());
+  }
+}
+
+void DemSolver::restore(const std::string& path) {
+  try {
+    DemSystem restored;
+    readCheckpoint(restored, path);
+    system_ = std::move(restored);
+  } catch (const std::exception& e) {
+    throw SolverError(Code::BAD_INPUT, e.what());
+  }
+  checkedDt_ = 0.0;
+  ready_ = true;
+}
+
+}  // namespace cosim::dem

@@ -1,0 +1,315 @@
+#include "cosim/dem/solver/scene_params.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "cosim/dem/packing/packing.hpp"
+#include "cosim/dem/solver/yaml_section.hpp"
+
+namespace cosim::dem {
+namespace {
+
+std::uint16_t materialOf(const YamlSection& s, const DemSystem& system) {
+  const std::string name = s.text("material", system.materials[0].name);
+  try {
+    return system.materials.find(name);
+  } catch (const std::invalid_argument&) {
+    s.fail("material", "unknown material '" + name + "'");
+  }
+}
+
+void readMaterials(const YamlSection& params, DemSystem& system) {
+  const YAML::Node list = params.node("materials");
+  if (!list) {
+    system.materials.add(Material{});
+    return;
+  }
+  if (!list.IsSequence() || list.size() == 0) params.fail("materials", "expected a non-empty list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YamlSection m(list[i], params.file(), params.path() + ".materials[" + std::to_string(i) + "]",
+                        {"name", "density", "young", "poisson", "restitution", "friction", "kn", "kt"});
+    Material mat;
+    mat.name = m.text("name", "material" + std::to_string(i));
+    mat.density = m.positive("density", mat.density);
+    mat.young = m.positive("young", mat.young);
+    mat.poisson = m.number("poisson", mat.poisson);
+    if (mat.poisson <= -1.0 || mat.poisson >= 0.5) m.fail("poisson", "must lie in (-1, 0.5)");
+    mat.restitution = m.number("restitution", mat.restitution);
+    if (!(mat.restitution > 0.0 && mat.restitution <= 1.0)) m.fail("restitution", "must lie in (0, 1]");
+    mat.friction = m.number("friction", mat.friction);
+    if (mat.friction < 0.0) m.fail("friction", "must be >= 0");
+    mat.kn = m.number("kn", mat.kn);
+    mat.kt = m.number("kt", mat.kt);
+    if (mat.kn < 0.0 || mat.kt < 0.0) m.fail("kn", "spring constants must be >= 0");
+    system.materials.add(mat);
+  }
+}
+
+void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& velocity, DemSystem& system,
+                const YamlSection& where) {
+  const double density = system.materials[material].density;
+  for (std::size_t i = 0; i < set.radii.size(); ++i) {
+    if (!(set.radii[i] > 0.0) || !std::isfinite(set.radii[i]))
+      throw SceneError(set.origin[i] + ": particle radius must be positive, got " + std::to_string(set.radii[i]) +
+                       " (" + where.path() + ")");
+    const std::size_t p = system.particles.add(set.centres[i], set.radii[i], density, material);
+    system.particles.v[p] = set.velocities[i] + velocity;
+  }
+}
+
+void readParticles(const YamlSection& params, DemSystem& system) {
+  const YAML::Node list = params.node("particles");
+  if (!list) params.fail("particles", "a dem solver needs particles");
+  if (!list.IsSequence()) params.fail("particles", "expected a list of sources (lattice, random, file, sphere)");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = params.path() + ".particles[" + std::to_string(i) + "]";
+    const YamlSection src(list[i], params.file(), path, {"lattice", "random", "file", "sphere"});
+    if (list[i].size() != 1) throw SceneError(src.where(list[i]) + ": " + path + ": give exactly one source kind");
+    if (src.has("lattice")) {
+      const YamlSection s = src.child("lattice", {"origin", "spacing", "counts", "radius", "kind", "material", "velocity", "jitter", "seed"});
+      const YAML::Node c = s.node("counts");
+      std::array<int, 3> counts{};
+      if (!c || !c.IsSequence() || c.size() != 3) s.fail("counts", "expected [nx, ny, nz]");
+      for (std::size_t d = 0; d < 3; ++d) counts[d] = c[d].as<int>();
+      if (counts[0] < 1 || counts[1] < 1 || counts[2] < 1) s.fail("counts", "must be >= 1");
+      const double spacing = s.positive("spacing");
+      const double radius = s.positive("radius");
+      const std::string kind = s.text("kind", "cubic");
+      if (kind != "cubic" && kind != "fcc") s.fail("kind", "unknown lattice kind '" + kind + "' (known: cubic, fcc)");
+      SphereSet set = latticePacking(s.vec3("origin", {}), spacing, counts, radius, kind);
+      // Optional random displacement (fraction of the half gap) to break the lattice's symmetry.
+      const double jitter = s.number("jitter", 0.0);
+      if (jitter < 0.0 || jitter > 1.0) s.fail("jitter", "must lie in [0, 1]");
+      if (jitter > 0.0) {
+        const double gap = 0.5 * (spacing * (kind == "fcc" ? std::sqrt(0.5) : 1.0) - 2.0 * radius);
+        if (gap <= 0.0) s.fail("jitter", "the lattice has no gap to jitter in");
+        std::mt19937_64 rng(static_cast<std::uint64_t>(s.integer("seed", 1)));
+        std::uniform_real_distribution<double> u(-jitter * gap / std::sqrt(3.0), jitter * gap / std::sqrt(3.0));
+        for (Vec3& centre : set.centres) centre += Vec3{u(rng), u(rng), u(rng)};
+      }
+      addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+    } else if (src.has("random")) {
+      const YamlSection s = src.child("random", {"min", "max", "radius", "count", "seed", "material", "velocity"});
+      const YAML::Node r = s.node("radius");
+      double rmin = 0.0, rmax = 0.0;
+      if (r && r.IsSequence() && r.size() == 2) {
+        rmin = r[0].as<double>();
+        rmax = r[1].as<double>();
+      } else {
+        rmin = rmax = s.positive("radius");
+      }
+      if (!(rmin > 0.0) || rmax < rmin) s.fail("radius", "need 0 < rmin <= rmax");
+      const long count = s.integer("count", 0);
+      if (count < 1) s.fail("count", "must be >= 1");
+      const Vec3 lo = s.vec3("min"), hi = s.vec3("max");
+      for (int d = 0; d < 3; ++d)
+        if (hi[d] - lo[d] < 2 * rmax) s.fail("max", "box smaller than one sphere along axis " + std::to_string(d));
+      const SphereSet set = randomPacking(lo, hi, rmin, rmax, static_cast<std::size_t>(count),
+                                          static_cast<std::uint64_t>(s.integer("seed", 1)));
+      if (set.radii.size() < static_cast<std::size_t>(count))
+        s.fail("count", "only " + std::to_string(set.radii.size()) + " of " + std::to_string(count) +
+                            " spheres fit in the box without overlap");
+      addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+    } else if (src.has("file")) {
+      const YamlSection s = src.child("file", {"path", "material", "velocity"});
+      std::string file = s.text("path");
+      try {
+        addSpheres(readSphereFile(file), materialOf(s, system), s.vec3("velocity", {}), system, s);
+      } catch (const SceneError&) {
+        throw;
+      } catch (const std::exception& e) {
+        throw SceneError(s.where("path") + ": " + s.path() + ".path: " + e.what());
+      }
+    } else {
+      const YamlSection s = src.child("sphere", {"position", "radius", "velocity", "angular_velocity", "material"});
+      SphereSet one;
+      one.centres.push_back(s.vec3("position"));
+      one.radii.push_back(s.positive("radius"));
+      one.velocities.push_back(s.vec3("velocity", {}));
+      one.origin.push_back(s.where("position"));
+      addSpheres(one, materialOf(s, system), {}, system, s);
+      system.particles.omega.back() = s.vec3("angular_velocity", {});
+    }
+  }
+  if (system.particles.size() == 0) params.fail("particles", "no particles were created");
+}
+
+void readWalls(const YamlSection& params, DemSystem& system) {
+  const YAML::Node list = params.node("walls");
+  if (!list) return;
+  if (!list.IsSequence()) params.fail("walls", "expected a list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = params.path() + ".walls[" + std::to_string(i) + "]";
+    const YamlSection probe(list[i], params.file(), path,
+                            {"type", "name", "point", "normal", "velocity", "mode", "stress", "area", "gain",
+                             "material", "vertices", "triangles"});
+    const std::string type = probe.text("type", "plane");
+    if (type == "plane") {
+      const YamlSection s(list[i], params.file(), path,
+                          {"type", "name", "point", "normal", "velocity", "mode", "stress", "area", "gain", "material"});
+      PlaneWall w;
+      w.name = s.text("name", "wall" + std::to_string(i));
+      w.point = s.vec3("point", {});
+      const Vec3 n = s.vec3("normal");
+      if (!(norm(n) > 0.0)) s.fail("normal", "must be non-zero");
+      w.normal = (1.0 / norm(n)) * n;
+      w.velocity = s.vec3("velocity", {});
+      const std::string mode = s.text("mode", norm(w.velocity) > 0.0 ? "velocity" : "fixed");
+      if (mode == "fixed") w.mode = PlaneWall::Mode::fixed;
+      else if (mode == "velocity") w.mode = PlaneWall::Mode::velocity;
+      else if (mode == "servo") {
+        w.mode = PlaneWall::Mode::servo;
+        w.servoStress = s.number("stress");
+        w.servoArea = s.positive("area");
+        w.servoGain = s.positive("gain");
+      } else {
+        s.fail("mode", "unknown wall mode '" + mode + "' (known: fixed, velocity, servo)");
+      }
+      w.material = materialOf(s, system);
+      system.planes.push_back(w);
+    } else if (type == "mesh") {
+      const YamlSection s(list[i], params.file(), path, {"type", "name", "vertices", "triangles", "velocity", "material"});
+      TriangleWallGroup g;
+      g.name = s.text("name", "mesh" + std::to_string(i));
+      const YAML::Node v = s.node("vertices"), t = s.node("triangles");
+      if (!v || !v.IsSequence()) s.fail("vertices", "expected a list of [x, y, z]");
+      if (!t || !t.IsSequence()) s.fail("triangles", "expected a list of [a, b, c]");
+      for (std::size_t k = 0; k < v.size(); ++k)
+        g.vertices.push_back(toVec3(v[k], s.where(v[k]) + ": " + path + ".vertices[" + std::to_string(k) + "]"));
+      const Vec3 vel = s.vec3("velocity", {});
+      g.velocities.assign(g.vertices.size(), vel);
+      for (std::size_t k = 0; k < t.size(); ++k) {
+        if (!t[k].IsSequence() || t[k].size() != 3)
+          throw SceneError(s.where(t[k]) + ": " + path + ".triangles[" + std::to_string(k) + "]: expected [a, b, c]");
+        g.triangles.push_back({t[k][0].as<std::uint32_t>(), t[k][1].as<std::uint32_t>(), t[k][2].as<std::uint32_t>()});
+      }
+      g.material = materialOf(s, system);
+      try {
+        g.validate();
+      } catch (const std::invalid_argument& e) {
+        throw SceneError(s.where("triangles") + ": " + path + ": " + e.what());
+      }
+      system.meshes.push_back(std::move(g));
+    } else {
+      probe.fail("type", "unknown wall type '" + type + "' (known: plane, mesh)");
+    }
+  }
+}
+
+}  // namespace
+
+YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sceneFile, const std::string& instance) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(sceneYaml);
+  } catch (const YAML::ParserException& e) {
+    throw SceneError(sceneFile + ":" + std::to_string(e.mark.line + 1) + ": YAML: " + e.msg);
+  }
+  const YAML::Node solvers = root["solvers"];
+  if (!solvers || !solvers.IsSequence()) throw SceneError(sceneFile + ": no 'solvers:' list");
+  for (const auto& s : solvers)
+    if (s["name"] && s["name"].as<std::string>() == instance) {
+      if (s["kind"] && s["kind"].as<std::string>() != "dem")
+        throw SceneError(sceneFile + ":" + std::to_string(s["kind"].Mark().line + 1) + ": solver '" + instance +
+                         "' has kind '" + s["kind"].as<std::string>() + "', not dem");
+      YAML::Node params = s["params"];
+      if (!params) throw SceneError(sceneFile + ":" + std::to_string(s.Mark().line + 1) + ": solver '" + instance +
+                                    "' has no params: section");
+      return params;
+    }
+  throw SceneError(sceneFile + ": no solver named '" + instance + "' in solvers:");
+}
+
+void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& system, RunSettings& settings) {
+  const YamlSection params(node, sceneFile, "params",
+                           {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance",
+                            "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds"});
+  const YamlSection contact = params.child("contact", {"normal", "tangential", "damping"});
+  const std::string normal = contact.text("normal", "hertz"), tangential = contact.text("tangential", "mindlin"),
+                    damping = contact.text("damping", "restitution");
+  if (!NormalLawRegistry::has(normal)) contact.fail("normal", "unknown normal contact law '" + normal + "'");
+  if (!TangentialLawRegistry::has(tangential))
+    contact.fail("tangential", "unknown tangential contact law '" + tangential + "'");
+  if (!DampingLawRegistry::has(damping)) contact.fail("damping", "unknown damping law '" + damping + "'");
+  system.setContactLaw(normal, tangential, damping);
+  const std::string integrator = params.text("integrator", "velocity-verlet");
+  if (!IntegratorRegistry::has(integrator))
+    params.fail("integrator", "unknown integrator '" + integrator + "' (known: velocity-verlet, leapfrog)");
+  system.setIntegrator(integrator);
+  system.gravity = params.vec3("gravity", {});
+  readMaterials(params, system);
+  if (normal == "linear")
+    for (const Material& m : system.materials.all())
+      if (!(m.kn > 0.0)) params.fail("materials", "material '" + m.name + "' needs kn > 0 for the linear law");
+  readParticles(params, system);
+  readWalls(params, system);
+  double rmin = std::numeric_limits<double>::max();
+  for (double r : system.particles.radius) rmin = std::min(rmin, r);
+  system.neighbors.skin = params.positive("skin", 0.2 * rmin);
+  settings.dt = params.positive("dt", 0.0);
+  settings.force = params.flag("force", false);
+  settings.overlapTolerance = params.number("overlap_tolerance", 0.01);
+  if (settings.overlapTolerance < 0.0) params.fail("overlap_tolerance", "must be >= 0");
+  system.massDamping = params.number("mass_damping", 0.0);
+  if (system.massDamping < 0.0) params.fail("mass_damping", "must be >= 0");
+  if (params.has("periodic")) {
+    // periodic: {cell: [[ax, ay, az], [bx, by, bz], [cx, cy, cz]], velocity_gradient: [[...], [...], [...]]}
+    const YamlSection per = params.child("periodic", {"cell", "velocity_gradient"});
+    auto matrix = [&per](const std::string& key, bool columns) {
+      const YAML::Node n = per.node(key);
+      if (!n || !n.IsSequence() || n.size() != 3) per.fail(key, "expected three rows of three numbers");
+      Mat3 m{};
+      for (std::size_t r = 0; r < 3; ++r) {
+        const Vec3 row = toVec3(n[r], per.where(n[r]) + ": " + per.path() + "." + key);
+        for (int c = 0; c < 3; ++c)
+          m[columns ? static_cast<std::size_t>(3 * c) + r : 3 * r + static_cast<std::size_t>(c)] = row[c];
+      }
+      return m;
+    };
+    system.cell.enabled = true;
+    system.cell.h = matrix("cell", true);  // rows of the YAML are the cell vectors a, b, c
+    if (!(system.cell.volume() > 0.0)) per.fail("cell", "cell vectors must be right-handed with positive volume");
+    if (per.has("velocity_gradient")) system.cell.velocityGradient = matrix("velocity_gradient", false);
+  }
+  if (params.has("bonds")) {
+    // bonds: {stiffness: k, neighbours: 1.01}: bond every pair closer than 1.01 (r_i + r_j).
+    const YamlSection b = params.child("bonds", {"stiffness", "neighbours"});
+    system.bonds.stiffness = b.positive("stiffness");
+    const double factor = b.number("neighbours", 1.01);
+    if (factor < 1.0 || factor > 2.0) b.fail("neighbours", "must lie in [1, 2] (times r_i + r_j)");
+    if (system.bonds.bondNeighbours(system.particles, system.cell, factor) == 0)
+      b.fail("neighbours", "no particle pairs are close enough to bond");
+  }
+  const YamlSection snap = params.child("snapshots", {"every", "file"});
+  settings.snapshotEvery = snap.integer("every", 0);
+  if (settings.snapshotEvery < 0) snap.fail("every", "must be >= 0");
+  settings.snapshotFile = snap.text("file", "");
+}
+
+void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context) {
+  const Particles& p = system.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(p.x[i][d]) || !std::isfinite(p.v[i][d]))
+        throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-finite position or velocity");
+    if (!(p.radius[i] > 0.0)) throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-positive radius");
+    if (!(p.mass[i] > 0.0) || !std::isfinite(p.mass[i]))
+      throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-positive density");
+  }
+  // Initial overlaps beyond the tolerance would start the run with a blast.
+  const NeighborList& nl = system.neighbors;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double overlap = p.radius[i] + p.radius[j] - norm(system.pairVector(i, k));
+      const double allowed = overlapTolerance * std::min(p.radius[i], p.radius[j]);
+      if (overlap > allowed)
+        throw SceneError(context + ": particles " + std::to_string(p.id[i]) + " and " + std::to_string(p.id[j]) +
+                         " overlap by " + std::to_string(overlap) + " m at start (tolerance " +
+                         std::to_string(allowed) + " m, params.overlap_tolerance)");
+    }
+}
+
+}  // namespace cosim::dem
