@@ -97,7 +97,7 @@ TEST_P(FemExplicitStability, StableAtNinetyPercentOfCriticalStep) {
   EXPECT_GT(growth, 1e3);
 }
 
-INSTANTIATE_TEST_SUITE_P(Formulations, FemExplicitStability,
+INSTANTIATE_TEST_SUITE_P(Fem, FemExplicitStability,
                          ::testing::Values("full", "incompatible-modes", "one-point"), [](const auto& param) {
                            std::string s = param.param;
                            std::erase(s, '-');

@@ -65,7 +65,7 @@ TEST_P(FemPatch, DistortedMeshIsExact) {
   EXPECT_LT(en.hourglass, 1e-10 * en.strain);
 }
 
-INSTANTIATE_TEST_SUITE_P(Formulations, FemPatch, ::testing::Values("full", "incompatible-modes", "one-point"),
+INSTANTIATE_TEST_SUITE_P(Fem, FemPatch, ::testing::Values("full", "incompatible-modes", "one-point"),
                          [](const auto& param) {
                            std::string s = param.param;
                            std::erase(s, '-');

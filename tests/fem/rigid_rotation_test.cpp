@@ -45,7 +45,7 @@ TEST_P(FemRigidRotation, NinetyDegreesGivesNoStress) {
   EXPECT_LT(en.hourglass, 1e-10 * E * 0.125);
 }
 
-INSTANTIATE_TEST_SUITE_P(Formulations, FemRigidRotation, ::testing::Values("full", "incompatible-modes", "one-point"),
+INSTANTIATE_TEST_SUITE_P(Fem, FemRigidRotation, ::testing::Values("full", "incompatible-modes", "one-point"),
                          [](const auto& param) {
                            std::string s = param.param;
                            std::erase(s, '-');

@@ -1,0 +1,147 @@
+// fem_bench explicit   : element-steps/s of the explicit internal-force loop on
+//                        a 100 x 100 x 10 (1e5 element) mesh, one-point and
+//                        full integration, 1 and 2 threads.
+// fem_bench cantilever : tip deflection / Timoshenko for every formulation
+//                        under mesh refinement (the docs/fem.md table).
+// fem_bench frequency  : first bending frequency of the cantilever against
+//                        beam theory (inverse iteration on K phi = w^2 M phi).
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "cosim/fem/linalg/sparse_system.hpp"
+#include "cosim/fem/model/model.hpp"
+#include "cosim/fem/time/integrator.hpp"
+
+using namespace cosim::fem;
+
+namespace {
+
+std::unique_ptr<Model> makeModel(Mesh mesh, const std::string& formulation, double rho = 1000.0) {
+  return std::make_unique<Model>(std::move(mesh), MaterialRegistry::instance().create("st-venant-kirchhoff", {1e8, 0.0, rho}),
+                                 FormulationRegistry::instance().create(formulation), FormulationOptions{});
+}
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void benchExplicit() {
+  std::printf("explicit central difference, 100 x 100 x 10 = 1e5 hexahedra, SVK\n");
+  std::printf("%-12s %8s %10s %16s\n", "formulation", "threads", "steps", "element-steps/s");
+  for (const char* f : {"one-point", "full"}) {
+    auto model = makeModel(makeBoxMesh({0, 0, 0}, {1, 1, 0.1}, {100, 100, 10}), f);
+    for (Index n : model->mesh().nodeSet("zmin"))
+      for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
+    model->addTraction(model->mesh().faceSet("zmax"), Vec3(0, 0, -1e4));
+    auto integrator = makeCentralDifference(*model, {});
+    State state;
+    state.resize(model->numDofs());
+    integrator->initialise(state);
+    const double dt = 0.9 * integrator->criticalDt();
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const int steps = std::string(f) == "full" ? 20 : 60;
+      integrator->step(state, dt);  // warm-up
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int s = 0; s < steps; ++s) integrator->step(state, dt);
+      const double t = seconds(t0);
+      std::printf("%-12s %8d %10d %16.3e\n", f, threads, steps,
+                  static_cast<double>(steps) * static_cast<double>(model->mesh().numElements()) / t);
+    }
+  }
+}
+
+double timoshenko(double P) {
+  const double L = 12, b = 0.8, E = 1e8, I = b * b * b * b / 12, A = b * b, G = E / 2, k = 5.0 / 6.0;
+  return P * L * L * L / (3 * E * I) + P * L / (k * G * A);
+}
+
+void benchCantilever() {
+  const double P = 100.0, ref = timoshenko(P);
+  std::printf("cantilever 0.8 x 0.8 x 12 m, E = 1e8 Pa, nu = 0, tip load %.0f N; Timoshenko tip %.5e m\n", P, ref);
+  std::printf("%-20s %-10s %8s %14s %10s %12s %9s\n", "formulation", "mesh", "dofs", "tip [m]", "tip/ref",
+              "hg/internal", "time [s]");
+  const int meshes[][3] = {{1, 15, 1}, {2, 30, 2}, {4, 60, 4}, {8, 120, 8}};
+  for (const char* f : {"full", "incompatible-modes", "one-point"}) {
+    for (const auto& m : meshes) {
+      auto model = makeModel(makeBoxMesh({0, 0, 0}, {0.8, 12, 0.8}, {m[0], m[1], m[2]}), f);
+      for (Index n : model->mesh().nodeSet("ymin"))
+        for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
+      model->addTraction(model->mesh().faceSet("ymax"), Vec3(0, 0, -P / 0.64));
+      State state;
+      state.resize(model->numDofs());
+      const auto t0 = std::chrono::steady_clock::now();
+      solveStatic(*model, state, NewtonOptions{});
+      const double t = seconds(t0);
+      double tip = 0.0;
+      const auto& tipNodes = model->mesh().nodeSet("ymax");
+      for (Index n : tipNodes) tip -= state.u[3 * n + 2] / static_cast<double>(tipNodes.size());
+      std::vector<double> fi;
+      ElementEnergy en;
+      model->internalForce(state.u, fi, en);
+      char name[32];
+      std::snprintf(name, sizeof name, "%dx%dx%d", m[0], m[1], m[2]);
+      std::printf("%-20s %-10s %8d %14.6e %10.4f %11.3f%% %9.3f\n", f, name, model->numFree(), tip, tip / ref,
+                  100.0 * en.hourglass / (en.strain + en.hourglass), t);
+    }
+  }
+}
+
+void benchFrequency() {
+  // Lowest eigenpair of K phi = w^2 M phi by inverse iteration with the sparse
+  // LDLT factor of K (consistent mass); compared with Euler-Bernoulli
+  // f1 = 1.875104^2 / (2 pi) sqrt(E I / (rho A L^4)).
+  const double rho = 1309.0, E = 1e8, b = 0.8, L = 12.0, I = b * b * b * b / 12, A = b * b;
+  const double fEB = 1.875104 * 1.875104 / (2 * M_PI) * std::sqrt(E * I / (rho * A * L * L * L * L));
+  std::printf("first bending frequency, Euler-Bernoulli %.5f Hz\n", fEB);
+  const int meshes[][3] = {{2, 30, 2}, {4, 60, 4}};
+  for (const char* f : {"incompatible-modes", "full"}) {
+    for (const auto& m : meshes) {
+      auto model = makeModel(makeBoxMesh({0, 0, 0}, {b, L, b}, {m[0], m[1], m[2]}), f, rho);
+      for (Index n : model->mesh().nodeSet("ymin"))
+        for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
+      SparseSystem K, M;
+      K.build(model->mesh(), model->dofMap(), model->numFree());
+      M.build(model->mesh(), model->dofMap(), model->numFree());
+      std::vector<double> u(model->numDofs(), 0.0), fi;
+      ElementEnergy en;
+      model->assembleTangent(u, K, fi, en);
+      model->assembleMass(M);
+      auto solver = makeLinearSolver("direct");
+      solver->factorize(K.matrix());
+      Eigen::VectorXd x = Eigen::VectorXd::Ones(model->numFree());
+      double lambda = 0.0;
+      for (int it = 0; it < 200; ++it) {
+        const Eigen::VectorXd y = solver->solve(M.matrix() * x);
+        const double next = x.dot(M.matrix() * x) / x.dot(M.matrix() * y);  // Rayleigh-type estimate of w^2
+        x = y / std::sqrt(y.dot(M.matrix() * y));
+        if (std::abs(next - lambda) < 1e-12 * next) {
+          lambda = next;
+          break;
+        }
+        lambda = next;
+      }
+      const double freq = std::sqrt(lambda) / (2 * M_PI);
+      std::printf("%-20s %dx%dx%d  f1 = %.5f Hz  ratio to Euler-Bernoulli %.4f\n", f, m[0], m[1], m[2], freq, freq / fEB);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "all";
+  if (mode == "explicit" || mode == "all") benchExplicit();
+  if (mode == "cantilever" || mode == "all") benchCantilever();
+  if (mode == "frequency" || mode == "all") benchFrequency();
+  if (mode != "all" && mode != "explicit" && mode != "cantilever" && mode != "frequency") {
+    std::fprintf(stderr, "usage: fem_bench [explicit|cantilever|frequency|all]\n");
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,43 @@
+#pragma once
+// A sparse symmetric matrix over the free dofs with a pattern fixed at build
+// time and a precomputed slot for every element matrix entry, so assembly is
+// a scatter of values and the symbolic factorisation can be reused.
+#include <Eigen/SparseCore>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/fem/mesh/mesh.hpp"
+#include "cosim/fem/types.hpp"
+
+namespace cosim::fem {
+
+class SparseSystem {
+ public:
+  using Matrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+  void build(const Mesh& mesh, const std::vector<int>& dofMap, int numFree);
+  void setZero();
+  void add(std::size_t element, const Mat24& Ke, double scale = 1.0);
+  Matrix& matrix() { return matrix_; }
+  const Matrix& matrix() const { return matrix_; }
+  int size() const { return static_cast<int>(matrix_.rows()); }
+
+ private:
+  Matrix matrix_;
+  std::vector<int> slots_;  // 576 per element, -1 where a dof is prescribed
+};
+
+/// Linear solvers for the Newton systems: "direct" (SimplicialLDLT, symbolic
+/// analysis once) and "cg" (conjugate gradients, incomplete Cholesky).
+class LinearSolver {
+ public:
+  virtual ~LinearSolver() = default;
+  /// Numeric factorisation; the first call also analyses the pattern.
+  virtual void factorize(const SparseSystem::Matrix& A) = 0;
+  virtual Eigen::VectorXd solve(const Eigen::VectorXd& b) = 0;
+  /// Index of a free dof with (near) zero pivot, or -1.
+  virtual int singularDof() const { return -1; }
+};
+std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name, double tolerance = 1e-10);
+
+}  // namespace cosim::fem

@@ -1,0 +1,140 @@
+#pragma once
+// The discrete model: mesh, material, element formulation, masses, boundary
+// conditions and loads. It evaluates global internal forces (OpenMP over
+// elements, then a deterministic gather per node so results do not depend on
+// the thread count) and assembles tangents into a fixed sparse pattern.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/fem/fem/element_formulation.hpp"
+#include "cosim/fem/material/material.hpp"
+#include "cosim/fem/mesh/mesh.hpp"
+
+namespace cosim::fem {
+
+class SparseSystem;
+
+/// A prescribed degree of freedom: displacement value(t) = amplitude * min(t / ramp, 1)
+/// (ramp 0 = applied at once), or a constant velocity (u = amplitude * t).
+struct Prescribed {
+  enum class Kind { displacement, velocity };
+  std::size_t dof = 0;
+  Kind kind = Kind::displacement;
+  double amplitude = 0.0;
+  double ramp = 0.0;
+  double displacement(double t) const;
+  double velocity(double t) const;
+};
+
+/// Arlequin weight profile w(x) along one axis (Cheng 2022 Eqs. 22-24): w = 1
+/// on the DEM side of `start`, 0 beyond `end`, linear or half-cosine between.
+struct WeightProfile {
+  std::string kind = "half-cosine";
+  int axis = 0;
+  double start = 0.0, end = 1.0;
+  double operator()(const Vec3& x) const;
+};
+
+struct Energies {
+  double kinetic = 0.0;
+  double strain = 0.0;
+  double hourglass = 0.0;
+  double externalWork = 0.0;
+};
+
+class Model {
+ public:
+  Model(Mesh mesh, std::unique_ptr<Material> material, std::unique_ptr<ElementFormulation> formulation,
+        const FormulationOptions& options = {});
+
+  const Mesh& mesh() const { return mesh_; }
+  const Material& material() const { return *material_; }
+  Material& material() { return *material_; }
+  const ElementFormulation& formulation() const { return *formulation_; }
+  std::size_t numNodes() const { return mesh_.numNodes(); }
+  std::size_t numDofs() const { return 3 * mesh_.numNodes(); }
+
+  // --- boundary conditions ---------------------------------------------------
+  void prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp = 0.0);
+  const std::vector<Prescribed>& prescribed() const { return prescribed_; }
+  bool isFixed(std::size_t dof) const { return fixed_[dof] != 0; }
+  /// Free-dof numbering: index into the reduced system, or -1 when prescribed.
+  const std::vector<int>& dofMap() const { return dofMap_; }
+  int numFree() const { return numFree_; }
+
+  // --- loads -----------------------------------------------------------------
+  /// Dead nodal loads scaled by min(t / loadRamp, 1).
+  std::vector<double>& referenceLoad() { return referenceLoad_; }
+  void setLoadRamp(double ramp) { loadRamp_ = ramp; }
+  /// Adds int N^T t dA over a face set (constant traction in the reference configuration).
+  void addTraction(const std::vector<Quad>& faces, const Vec3& traction);
+  /// A pressure on a face set that follows the deformed face (acts along the
+  /// current inward normal; a constant confining pressure on a moving face).
+  void addPressure(const std::vector<Quad>& faces, double pressure);
+  /// Adds the follower loads at displacement u to f (scaled like dead loads).
+  void addFollowerLoads(double t, const std::vector<double>& u, std::vector<double>& f) const;
+  bool hasFollowerLoads() const { return !pressures_.empty(); }
+  /// Adds int N^T rho g dV over the whole body.
+  void addBodyForce(const Vec3& acceleration);
+  /// Nodal forces supplied from outside for the current step (coupling).
+  std::vector<double>& couplingForce() { return couplingForce_; }
+  void externalForce(double t, std::vector<double>& f) const;
+
+  // --- element loops ---------------------------------------------------------
+  /// Internal force (3 per node) and energies at displacement u.
+  void internalForce(const std::vector<double>& u, std::vector<double>& f, ElementEnergy& energy) const;
+  /// Tangent (free-free block) and internal force; the system must have been built for this model.
+  void assembleTangent(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
+                       ElementEnergy& energy) const;
+  /// Consistent mass into a system with the same pattern.
+  void assembleMass(SparseSystem& M) const;
+  /// y = M x with the consistent mass (lumped when lumped = true), all dofs.
+  void massTimes(const std::vector<double>& x, std::vector<double>& y, bool lumped) const;
+  double kineticEnergy(const std::vector<double>& v, bool lumped) const;
+  /// Lumped (row-sum) mass per node.
+  const std::vector<double>& lumpedMass() const { return lumpedMass_; }
+  /// Weights every element integral (mass, internal and body forces) by
+  /// 1 - w(X) at its material points (Cheng 2022 Eq. 25); surface tractions
+  /// stay unweighted. Throws naming a node left without mass.
+  void setArlequinWeight(const WeightProfile& profile);
+  /// Multiplies all masses (mass scaling for explicit steps).
+  void setMassScale(double s);
+  double massScale() const { return massScale_; }
+  /// Largest stable central-difference step from element eigenvalues with the
+  /// lumped mass (Irons' bound), reduced for mass-proportional damping alpha
+  /// [1/s] by Liu 2016 Eq. 65.
+  double criticalTimeStep(double dampingAlpha = 0.0) const;
+  /// Element displacement matrix (8 x 3) from a global vector.
+  Mat83 gather(std::size_t e, const std::vector<double>& u) const;
+
+  /// Throws SolveError naming the dof and node for the first non-finite value.
+  void checkFinite(const std::vector<double>& x, const std::string& what) const;
+
+ private:
+  void buildNodeIncidence();
+  void computeMass();
+  /// 1 - w at the 2x2x2 Gauss points of element e (1 without a profile).
+  double massWeight(std::size_t e, int q) const;
+  const double* gaussScale(std::size_t e) const;
+  Mesh mesh_;
+  std::unique_ptr<Material> material_;
+  std::unique_ptr<ElementFormulation> formulation_;
+  std::vector<char> fixed_;
+  std::vector<Prescribed> prescribed_;
+  std::vector<int> dofMap_;
+  int numFree_ = 0;
+  std::vector<double> referenceLoad_, couplingForce_;
+  double loadRamp_ = 0.0;
+  std::vector<std::pair<std::vector<Quad>, double>> pressures_;
+  std::vector<double> lumpedMass_, unscaledLumpedMass_;
+  double massScale_ = 1.0;
+  std::vector<double> gaussWeight_;  // 1 - w at the 8 Gauss points of each element, empty = 1
+  std::vector<double> bodyAcceleration_;
+  std::vector<Index> incidenceStart_, incidence_;  // node -> 8 e + a
+  mutable std::vector<double> elementForces_;      // 24 per element
+  mutable std::vector<double> elementEnergy_;      // 2 per element
+  mutable std::vector<Mat24> tangentBuffer_;       // element tangents of one assembly chunk
+};
+
+}  // namespace cosim::fem

@@ -1,0 +1,415 @@
+#include "cosim/fem/model/model.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <exception>
+#include <sstream>
+
+#include "cosim/fem/fem/hex8.hpp"
+#include "cosim/fem/linalg/sparse_system.hpp"
+
+namespace cosim::fem {
+
+// Below this many elements a parallel region costs more than it saves
+// (and on an oversubscribed machine a barrier can cost milliseconds).
+constexpr long kParallelElements = 2000;
+
+namespace {
+/// Exceptions must not leave an OpenMP region: keep the first, rethrow after.
+class ExceptionCollector {
+ public:
+  template <class F>
+  bool run(F&& f) {
+    try {
+      f();
+      return true;
+    } catch (...) {
+#pragma omp critical(cosim_fem_exception)
+      if (!first_) first_ = std::current_exception();
+      return false;
+    }
+  }
+  void rethrow() const {
+    if (first_) std::rethrow_exception(first_);
+  }
+
+ private:
+  std::exception_ptr first_;
+};
+}  // namespace
+
+double Prescribed::displacement(double t) const {
+  if (kind == Kind::velocity) return amplitude * t;
+  return ramp > 0.0 ? amplitude * std::min(t / ramp, 1.0) : amplitude;
+}
+
+double Prescribed::velocity(double t) const {
+  if (kind == Kind::velocity) return amplitude;
+  return (ramp > 0.0 && t < ramp) ? amplitude / ramp : 0.0;
+}
+
+Model::Model(Mesh mesh, std::unique_ptr<Material> material, std::unique_ptr<ElementFormulation> formulation,
+             const FormulationOptions& options)
+    : mesh_(std::move(mesh)), material_(std::move(material)), formulation_(std::move(formulation)) {
+  mesh_.validate();
+  formulation_->initialise(mesh_, *material_, options);
+  material_->setPointCount(mesh_.numElements() * static_cast<std::size_t>(formulation_->pointsPerElement()));
+  fixed_.assign(numDofs(), 0);
+  referenceLoad_.assign(numDofs(), 0.0);
+  couplingForce_.assign(numDofs(), 0.0);
+  dofMap_.resize(numDofs());
+  for (std::size_t d = 0; d < numDofs(); ++d) dofMap_[d] = static_cast<int>(d);
+  numFree_ = static_cast<int>(numDofs());
+  computeMass();
+  buildNodeIncidence();
+  elementForces_.resize(24 * mesh_.numElements());
+  elementEnergy_.resize(2 * mesh_.numElements());
+}
+
+double WeightProfile::operator()(const Vec3& x) const {
+  const double t = std::clamp((x[axis] - start) / (end - start), 0.0, 1.0);
+  if (kind == "linear") return 1.0 - t;
+  return 0.5 * (1.0 + std::cos(M_PI * t));  // half-cosine
+}
+
+double Model::massWeight(std::size_t e, int q) const {
+  return gaussWeight_.empty() ? 1.0 : gaussWeight_[8 * e + static_cast<std::size_t>(q)];
+}
+
+const double* Model::gaussScale(std::size_t e) const {
+  static const double kOnes[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+  return gaussWeight_.empty() ? kOnes : gaussWeight_.data() + 8 * e;
+}
+
+void Model::computeMass() {
+  // Row-sum lumped mass m_a = int (1 - w) rho N_a dV (2x2x2 Gauss).
+  hex8::ReferenceGeometry geometry;
+  geometry.build(mesh_);
+  unscaledLumpedMass_.assign(numNodes(), 0.0);
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e)
+    for (int q = 0; q < 8; ++q) {
+      const hex8::Shape N = hex8::shape(hex8::gaussPoint(q));
+      for (int a = 0; a < 8; ++a)
+        unscaledLumpedMass_[mesh_.elements[e][static_cast<std::size_t>(a)]] +=
+            material_->density() * N(a) * geometry.weight(e, q) * massWeight(e, q);
+    }
+  lumpedMass_ = unscaledLumpedMass_;
+  for (double& m : lumpedMass_) m *= massScale_;
+}
+
+void Model::setArlequinWeight(const WeightProfile& profile) {
+  if (profile.axis < 0 || profile.axis > 2) throw InputError("weight profile: axis must be 0, 1 or 2");
+  if (profile.kind != "linear" && profile.kind != "half-cosine")
+    throw InputError("weight profile: unknown kind '" + profile.kind + "' (known: half-cosine, linear)");
+  if (!(profile.end != profile.start)) throw InputError("weight profile: start and end must differ");
+  const std::size_t ne = mesh_.numElements();
+  gaussWeight_.assign(8 * ne, 1.0);
+  const int np = formulation_->pointsPerElement();
+  std::vector<double> pointScale(ne * static_cast<std::size_t>(np));
+  for (std::size_t e = 0; e < ne; ++e) {
+    const Mat83 X = mesh_.elementCoordinates(e);
+    for (int q = 0; q < 8; ++q)
+      gaussWeight_[8 * e + static_cast<std::size_t>(q)] =
+          1.0 - profile(X.transpose() * hex8::shape(hex8::gaussPoint(q)));
+    if (np == 1) {
+      pointScale[e] = 1.0 - profile(X.transpose() * hex8::shape(Vec3::Zero()));
+    } else {
+      for (int q = 0; q < 8; ++q) pointScale[8 * e + static_cast<std::size_t>(q)] = gaussWeight_[8 * e + static_cast<std::size_t>(q)];
+    }
+  }
+  formulation_->setPointScale(std::move(pointScale));
+  // Body forces were integrated with the unweighted mass: redo them.
+  std::vector<double> oldMass = unscaledLumpedMass_;
+  computeMass();
+  for (std::size_t n = 0; n < numNodes(); ++n) {
+    if (!(unscaledLumpedMass_[n] > 0.0))
+      throw InputError("node " + std::to_string(n) + " has no mass after Arlequin weighting (1 - w = 0 around it)");
+    if (!bodyAcceleration_.empty())
+      for (std::size_t i = 0; i < 3; ++i)
+        referenceLoad_[3 * n + i] += (unscaledLumpedMass_[n] - oldMass[n]) * bodyAcceleration_[i];
+  }
+}
+
+void Model::buildNodeIncidence() {
+  incidenceStart_.assign(numNodes() + 1, 0);
+  for (const Hex& h : mesh_.elements)
+    for (Index n : h) ++incidenceStart_[n + 1];
+  for (std::size_t n = 0; n < numNodes(); ++n) incidenceStart_[n + 1] += incidenceStart_[n];
+  incidence_.resize(incidenceStart_.back());
+  std::vector<Index> cursor(incidenceStart_.begin(), incidenceStart_.end() - 1);
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e)
+    for (int a = 0; a < 8; ++a)
+      incidence_[cursor[mesh_.elements[e][static_cast<std::size_t>(a)]]++] = static_cast<Index>(8 * e + static_cast<std::size_t>(a));
+}
+
+void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp) {
+  if (node >= numNodes() || direction < 0 || direction > 2)
+    throw InputError("prescribed dof out of range: node " + std::to_string(node));
+  if (!std::isfinite(amplitude)) throw InputError("prescribed value for node " + std::to_string(node) + " is not finite");
+  const std::size_t dof = 3 * node + static_cast<std::size_t>(direction);
+  Prescribed p{dof, kind, amplitude, ramp};
+  if (fixed_[dof]) {
+    for (auto& q : prescribed_)
+      if (q.dof == dof) q = p;
+  } else {
+    fixed_[dof] = 1;
+    prescribed_.push_back(p);
+  }
+  int next = 0;
+  for (std::size_t d = 0; d < numDofs(); ++d) dofMap_[d] = fixed_[d] ? -1 : next++;
+  numFree_ = next;
+}
+
+void Model::addTraction(const std::vector<Quad>& faces, const Vec3& traction) {
+  // int N_a t dA over bilinear quads with 2x2 Gauss points.
+  const double g = 1.0 / std::sqrt(3.0);
+  const double pts[4][2] = {{-g, -g}, {g, -g}, {g, g}, {-g, g}};
+  for (const Quad& q : faces) {
+    Eigen::Matrix<double, 4, 3> X;
+    for (int a = 0; a < 4; ++a) X.row(a) = mesh_.node(q[static_cast<std::size_t>(a)]).transpose();
+    for (const auto& p : pts) {
+      const double s = p[0], t = p[1];
+      const double N[4] = {0.25 * (1 - s) * (1 - t), 0.25 * (1 + s) * (1 - t), 0.25 * (1 + s) * (1 + t),
+                           0.25 * (1 - s) * (1 + t)};
+      const Vec3 dS = 0.25 * (-(1 - t) * X.row(0) + (1 - t) * X.row(1) + (1 + t) * X.row(2) - (1 + t) * X.row(3)).transpose();
+      const Vec3 dT = 0.25 * (-(1 - s) * X.row(0) - (1 + s) * X.row(1) + (1 + s) * X.row(2) + (1 - s) * X.row(3)).transpose();
+      const double dA = dS.cross(dT).norm();
+      for (int a = 0; a < 4; ++a)
+        for (int i = 0; i < 3; ++i) referenceLoad_[3 * q[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += N[a] * traction[i] * dA;
+    }
+  }
+}
+
+void Model::addPressure(const std::vector<Quad>& faces, double pressure) {
+  if (!std::isfinite(pressure)) throw InputError("pressure must be finite");
+  pressures_.emplace_back(faces, pressure);
+}
+
+void Model::addFollowerLoads(double t, const std::vector<double>& u, std::vector<double>& f) const {
+  // f_a = -p int N_a n da on the current face: with x(s, t) bilinear,
+  // n da = (dx/ds x dx/dt) ds dt (2x2 Gauss).
+  const double factor = loadRamp_ > 0.0 ? std::min(t / loadRamp_, 1.0) : 1.0;
+  const double g = 1.0 / std::sqrt(3.0);
+  const double pts[4][2] = {{-g, -g}, {g, -g}, {g, g}, {-g, g}};
+  for (const auto& [faces, p] : pressures_) {
+    for (const Quad& q : faces) {
+      Eigen::Matrix<double, 4, 3> x;
+      for (int a = 0; a < 4; ++a)
+        for (int i = 0; i < 3; ++i) {
+          const std::size_t d = 3 * q[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i);
+          x(a, i) = mesh_.X[d] + u[d];
+        }
+      for (const auto& pt : pts) {
+        const double s = pt[0], r = pt[1];
+        const double N[4] = {0.25 * (1 - s) * (1 - r), 0.25 * (1 + s) * (1 - r), 0.25 * (1 + s) * (1 + r),
+                             0.25 * (1 - s) * (1 + r)};
+        const Vec3 dS = 0.25 * (-(1 - r) * x.row(0) + (1 - r) * x.row(1) + (1 + r) * x.row(2) - (1 + r) * x.row(3)).transpose();
+        const Vec3 dT = 0.25 * (-(1 - s) * x.row(0) - (1 + s) * x.row(1) + (1 + s) * x.row(2) + (1 - s) * x.row(3)).transpose();
+        const Vec3 nda = dS.cross(dT);  // outward for outward-ordered faces
+        for (int a = 0; a < 4; ++a)
+          for (int i = 0; i < 3; ++i)
+            f[3 * q[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] -= factor * p * N[a] * nda[i];
+      }
+    }
+  }
+}
+
+void Model::addBodyForce(const Vec3& acceleration) {
+  if (bodyAcceleration_.empty()) bodyAcceleration_.assign(3, 0.0);
+  for (int i = 0; i < 3; ++i) bodyAcceleration_[static_cast<std::size_t>(i)] += acceleration[i];
+  for (std::size_t n = 0; n < numNodes(); ++n)
+    for (int i = 0; i < 3; ++i) referenceLoad_[3 * n + static_cast<std::size_t>(i)] += unscaledLumpedMass_[n] * acceleration[i];
+}
+
+void Model::externalForce(double t, std::vector<double>& f) const {
+  const double factor = loadRamp_ > 0.0 ? std::min(t / loadRamp_, 1.0) : 1.0;
+  f.resize(numDofs());
+  for (std::size_t d = 0; d < numDofs(); ++d) f[d] = factor * referenceLoad_[d] + couplingForce_[d];
+}
+
+Mat83 Model::gather(std::size_t e, const std::vector<double>& u) const {
+  Mat83 ue;
+  const Hex& h = mesh_.elements[e];
+  for (int a = 0; a < 8; ++a)
+    for (int i = 0; i < 3; ++i) ue(a, i) = u[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)];
+  return ue;
+}
+
+void Model::internalForce(const std::vector<double>& u, std::vector<double>& f, ElementEnergy& energy) const {
+  const long ne = static_cast<long>(mesh_.numElements());
+  const ElementFormulation& form = *formulation_;
+  ExceptionCollector errors;
+#pragma omp parallel for schedule(static) if (ne > kParallelElements)
+  for (long e = 0; e < ne; ++e) {
+    const std::size_t el = static_cast<std::size_t>(e);
+    Vec24 fe;
+    ElementEnergy en;
+    if (!errors.run([&] { form.evaluate(el, gather(el, u), fe, nullptr, en); })) continue;
+    std::copy(fe.data(), fe.data() + 24, elementForces_.data() + 24 * el);
+    elementEnergy_[2 * el] = en.strain;
+    elementEnergy_[2 * el + 1] = en.hourglass;
+  }
+  errors.rethrow();
+  // Gather per node in a fixed order: results independent of the thread count.
+  f.assign(numDofs(), 0.0);
+  const long nn = static_cast<long>(numNodes());
+#pragma omp parallel for schedule(static) if (nn > kParallelElements)
+  for (long n = 0; n < nn; ++n) {
+    double s[3] = {0.0, 0.0, 0.0};
+    for (Index k = incidenceStart_[static_cast<std::size_t>(n)]; k < incidenceStart_[static_cast<std::size_t>(n) + 1]; ++k) {
+      const double* fe = elementForces_.data() + 3 * static_cast<std::size_t>(incidence_[k]);
+      s[0] += fe[0];
+      s[1] += fe[1];
+      s[2] += fe[2];
+    }
+    for (int i = 0; i < 3; ++i) f[3 * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] = s[i];
+  }
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
+    energy.strain += elementEnergy_[2 * e];
+    energy.hourglass += elementEnergy_[2 * e + 1];
+  }
+}
+
+void Model::assembleTangent(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
+                            ElementEnergy& energy) const {
+  K.setZero();
+  f.assign(numDofs(), 0.0);
+  const std::size_t ne = mesh_.numElements();
+  const std::size_t kChunk = std::min<std::size_t>(512, ne);
+  if (tangentBuffer_.size() < kChunk) tangentBuffer_.resize(kChunk);
+  std::vector<Mat24>& Ke = tangentBuffer_;
+  std::vector<Vec24> fe(kChunk);
+  std::vector<ElementEnergy> en(kChunk);
+  for (std::size_t start = 0; start < ne; start += kChunk) {
+    const long count = static_cast<long>(std::min(kChunk, ne - start));
+    ExceptionCollector errors;
+#pragma omp parallel for schedule(static) if (count > 64)
+    for (long k = 0; k < count; ++k) {
+      const std::size_t e = start + static_cast<std::size_t>(k);
+      en[static_cast<std::size_t>(k)] = ElementEnergy{};
+      errors.run([&] {
+        formulation_->evaluate(e, gather(e, u), fe[static_cast<std::size_t>(k)], &Ke[static_cast<std::size_t>(k)],
+                               en[static_cast<std::size_t>(k)]);
+      });
+    }
+    errors.rethrow();
+    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
+      const std::size_t e = start + k;
+      K.add(e, Ke[k]);
+      const Hex& h = mesh_.elements[e];
+      for (int a = 0; a < 8; ++a)
+        for (int i = 0; i < 3; ++i) f[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += fe[k](3 * a + i);
+      energy.strain += en[k].strain;
+      energy.hourglass += en[k].hourglass;
+    }
+  }
+}
+
+namespace {
+// Consistent element mass rho int N_a N_b dV (8 x 8, one block per direction).
+Eigen::Matrix<double, 8, 8> elementMass(const Mat83& X, double rho, const double* scale) {
+  Eigen::Matrix<double, 8, 8> M = Eigen::Matrix<double, 8, 8>::Zero();
+  for (int q = 0; q < 8; ++q) {
+    const Vec3 xi = hex8::gaussPoint(q);
+    const hex8::Shape N = hex8::shape(xi);
+    const double detJ = (X.transpose() * hex8::shapeDerivatives(xi)).determinant();
+    M += rho * detJ * scale[q] * N * N.transpose();
+  }
+  return M;
+}
+}  // namespace
+
+void Model::assembleMass(SparseSystem& M) const {
+  M.setZero();
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
+    const Eigen::Matrix<double, 8, 8> m = massScale_ * elementMass(mesh_.elementCoordinates(e), material_->density(), gaussScale(e));
+    Mat24 Me = Mat24::Zero();
+    for (int a = 0; a < 8; ++a)
+      for (int b = 0; b < 8; ++b)
+        for (int i = 0; i < 3; ++i) Me(3 * a + i, 3 * b + i) = m(a, b);
+    M.add(e, Me);
+  }
+}
+
+void Model::massTimes(const std::vector<double>& x, std::vector<double>& y, bool lumped) const {
+  y.assign(numDofs(), 0.0);
+  if (lumped) {
+    for (std::size_t d = 0; d < numDofs(); ++d) y[d] = lumpedMass_[d / 3] * x[d];
+    return;
+  }
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
+    const Eigen::Matrix<double, 8, 8> m = massScale_ * elementMass(mesh_.elementCoordinates(e), material_->density(), gaussScale(e));
+    const Mat83 xe = gather(e, x);
+    const Mat83 ye = m * xe;
+    const Hex& h = mesh_.elements[e];
+    for (int a = 0; a < 8; ++a)
+      for (int i = 0; i < 3; ++i) y[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += ye(a, i);
+  }
+}
+
+double Model::kineticEnergy(const std::vector<double>& v, bool lumped) const {
+  std::vector<double> mv;
+  massTimes(v, mv, lumped);
+  double k = 0.0;
+  for (std::size_t d = 0; d < numDofs(); ++d) k += 0.5 * v[d] * mv[d];
+  return k;
+}
+
+void Model::setMassScale(double s) {
+  if (!(s > 0.0) || !std::isfinite(s)) throw InputError("mass scaling factor must be positive");
+  massScale_ = s;
+  for (std::size_t n = 0; n < numNodes(); ++n) lumpedMass_[n] = s * unscaledLumpedMass_[n];
+}
+
+double Model::criticalTimeStep(double dampingAlpha) const {
+  // omega_max <= max_e omega_e for a lumped mass (Irons); elements with the
+  // same shape (structured meshes) share one eigenvalue computation.
+  std::map<std::vector<long long>, double> cache;
+  double omegaMax = 0.0;
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
+    const Mat83 X = mesh_.elementCoordinates(e);
+    const double h = (X.row(6) - X.row(0)).norm();
+    std::vector<long long> key(24);
+    for (int a = 0; a < 8; ++a)
+      for (int i = 0; i < 3; ++i) key[static_cast<std::size_t>(3 * a + i)] = std::llround((X(a, i) - X(0, i)) / h * 1e9);
+    key.push_back(static_cast<long long>(std::llround(std::log(h) * 1e9)));
+    for (int q = 0; q < 8 && !gaussWeight_.empty(); ++q) key.push_back(std::llround(gaussScale(e)[q] * 1e9));
+    auto it = cache.find(key);
+    double omega = 0.0;
+    if (it != cache.end()) {
+      omega = it->second;
+    } else {
+      Vec24 fe;
+      Mat24 Ke;
+      ElementEnergy en;
+      formulation_->evaluate(e, Mat83::Zero(), fe, &Ke, en);
+      const Eigen::Matrix<double, 8, 8> m = massScale_ * elementMass(X, material_->density(), gaussScale(e));
+      Vec24 dinv;
+      for (int a = 0; a < 8; ++a)
+        for (int i = 0; i < 3; ++i) dinv(3 * a + i) = 1.0 / std::sqrt(m.row(a).sum());
+      const Eigen::Matrix<double, 24, 24> A = dinv.asDiagonal() * Eigen::Matrix<double, 24, 24>(Ke) * dinv.asDiagonal();
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 24, 24>> eig(A, Eigen::EigenvaluesOnly);
+      omega = std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
+      cache.emplace(std::move(key), omega);
+    }
+    omegaMax = std::max(omegaMax, omega);
+  }
+  if (!(omegaMax > 0.0)) return 0.0;
+  // Liu 2016 Eq. 65: dt <= 2 / omega_max (sqrt(1 + xi^2) - xi), xi = alpha / (2 omega_max)
+  // for mass-proportional damping C = alpha M.
+  const double xi = dampingAlpha / (2.0 * omegaMax);
+  return 2.0 / omegaMax * (std::sqrt(1.0 + xi * xi) - xi);
+}
+
+void Model::checkFinite(const std::vector<double>& x, const std::string& what) const {
+  for (std::size_t d = 0; d < x.size(); ++d)
+    if (!std::isfinite(x[d])) {
+      std::ostringstream msg;
+      msg << "non-finite " << what << " at node " << d / 3 << " direction " << "xyz"[d % 3];
+      throw SolveError(msg.str());
+    }
+}
+
+}  // namespace cosim::fem

@@ -1,0 +1,559 @@
+#include "cosim/fem/solver/fem_solver.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "cosim/fem/coupling/surface_export.hpp"
+#include "cosim/fem/material/corotational.hpp"
+#include "cosim/fem/material/external_stress.hpp"
+#include "cosim/fem/mesh/gmsh_reader.hpp"
+#include "cosim/fem/coupling/volume_zone.hpp"
+#include "cosim/fem/solver/scene_params.hpp"
+#include "cosim/fem/solver/snapshot_writer.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::fem {
+
+using wire::SolverError;
+using Code = proto::Error::Code;
+
+namespace {
+
+constexpr std::uint64_t kCheckpointMagic = 0x31504b4320454546ULL;  // "FEE CKP1"
+
+YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(context.sceneYaml);
+  } catch (const YAML::Exception& e) {
+    throw InputError(context.sceneFile + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  const YAML::Node solvers = root["solvers"];
+  if (!solvers || !solvers.IsSequence()) throw InputError(context.sceneFile + ": no 'solvers' list");
+  for (std::size_t i = 0; i < solvers.size(); ++i) {
+    if (solvers[i]["name"] && solvers[i]["name"].as<std::string>() == context.instance) {
+      path = "solvers[" + std::to_string(i) + "].params";
+      const YAML::Node params = solvers[i]["params"];
+      if (!params)
+        throw InputError(context.sceneFile + ":" + std::to_string(solvers[i].Mark().line + 1) + ": solver '" +
+                         context.instance + "' has no params section");
+      return params;
+    }
+  }
+  throw InputError(context.sceneFile + ": no solver named '" + context.instance + "'");
+}
+
+Mesh readMesh(ParamMap p) {
+  if (p.has("gmsh")) {
+    std::filesystem::path file = p.text("gmsh");
+    if (file.is_relative()) file = std::filesystem::path(p.file()).parent_path() / file;
+    p.finish();
+    try {
+      return readGmsh(file.string());
+    } catch (const InputError& e) {
+      p.fail(p.get("gmsh"), e.what());
+    }
+  }
+  if (!p.has("box")) p.fail(p.node(), p.path() + " needs 'box' or 'gmsh'");
+  ParamMap b = p.map("box");
+  const Vec3 lo = b.vec3("min"), hi = b.vec3("max");
+  const Vec3 n = b.vec3("divisions");
+  std::array<int, 3> div{};
+  for (int d = 0; d < 3; ++d) {
+    div[static_cast<std::size_t>(d)] = static_cast<int>(n[d]);
+    if (n[d] < 1 || n[d] != std::floor(n[d])) b.fail(b.get("divisions"), b.path() + ".divisions must be positive integers");
+    if (!(hi[d] > lo[d])) b.fail(b.get("max"), b.path() + ".max must exceed min in every direction");
+  }
+  b.finish();
+  p.finish();
+  return makeBoxMesh(lo, hi, div);
+}
+
+int directionIndex(const std::string& s) {
+  if (s == "x") return 0;
+  if (s == "y") return 1;
+  if (s == "z") return 2;
+  return -1;
+}
+
+}  // namespace
+
+FemSolver::FemSolver() = default;
+FemSolver::~FemSolver() = default;
+
+wire::SolverInfo FemSolver::info() const {
+  wire::SolverInfo i;
+  i.kind = "fem";
+  i.version = "0.1.0";
+  i.capabilities = wire::baseCapabilities();
+  return i;
+}
+
+void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Builder outputs) {
+  try {
+    std::string path;
+    YAML::Node params = findParams(context, path);
+    ParamMap p(params, context.sceneFile, path);
+    Mesh mesh = readMesh(p.map("mesh"));
+    // Named node/face sets by box: nodes in the box, boundary faces with all nodes in it.
+    if (p.has("sets")) {
+      YAML::Node sets = p.get("sets");
+      if (!sets.IsMap()) p.fail(sets, path + ".sets must be a map of name: {box: {min, max}}");
+      for (const auto& kv : sets) {
+        const std::string name = kv.first.as<std::string>();
+        ParamMap s(kv.second, context.sceneFile, path + ".sets." + name);
+        ParamMap box = s.map("box");
+        const Vec3 lo = box.vec3("min"), hi = box.vec3("max");
+        box.finish();
+        s.finish();
+        mesh.nodeSets[name] = mesh.nodesInBox(lo, hi);
+        mesh.faceSets[name] = mesh.boundaryFacesInBox(lo, hi);
+        if (mesh.nodeSets[name].empty()) s.fail(kv.second, "set '" + name + "' contains no nodes");
+      }
+    }
+    ParamMap mat = p.map("material");
+    const std::string matName = mat.text("model", "st-venant-kirchhoff");
+    MaterialParams mp{mat.number("E"), mat.number("nu"), mat.number("density")};
+    mat.finish();
+    FormulationOptions fo;
+    fo.hourglassCoefficient = p.number("hourglass", fo.hourglassCoefficient);
+    const std::string formName = p.text("formulation", "full");
+    std::unique_ptr<Material> material;
+    std::unique_ptr<ElementFormulation> formulation;
+    try {
+      material = MaterialRegistry::instance().create(matName, mp);
+      formulation = FormulationRegistry::instance().create(formName);
+      model_ = std::make_unique<Model>(std::move(mesh), std::move(material), std::move(formulation), fo);
+    } catch (const InputError& e) {
+      p.fail(p.node(), path + ": " + e.what());
+    }
+    // Boundary conditions.
+    if (p.has("boundary")) {
+      YAML::Node list = p.get("boundary");
+      if (!list.IsSequence()) p.fail(list, path + ".boundary must be a list");
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::string key = path + ".boundary[" + std::to_string(i) + "]";
+        ParamMap b(list[i], context.sceneFile, key);
+        const std::string set = b.text("set");
+        std::vector<Index> nodes;
+        try {
+          nodes = model_->mesh().nodeSet(set, key + ".set");
+        } catch (const InputError& e) {
+          b.fail(b.get("set"), e.what());
+        }
+        std::vector<int> dirs;
+        YAML::Node dofs = b.has("dofs") ? b.get("dofs") : YAML::Node();
+        if (!dofs) {
+          dirs = {0, 1, 2};
+        } else {
+          for (const auto& d : dofs) {
+            const int k = directionIndex(d.as<std::string>());
+            if (k < 0) b.fail(dofs, key + ".dofs entries must be x, y or z");
+            dirs.push_back(k);
+          }
+        }
+        const std::string kind = b.text("kind", "displacement");
+        if (kind != "displacement" && kind != "velocity") b.fail(b.get("kind"), key + ".kind must be displacement or velocity");
+        const double value = b.number("value", 0.0), ramp = b.number("ramp", 0.0);
+        b.finish();
+        for (Index n : nodes)
+          for (int d : dirs)
+            model_->prescribe(n, d, kind == "velocity" ? Prescribed::Kind::velocity : Prescribed::Kind::displacement,
+                              value, ramp);
+      }
+    }
+    // Loads.
+    if (p.has("loads")) {
+      YAML::Node list = p.get("loads");
+      if (!list.IsSequence()) p.fail(list, path + ".loads must be a list");
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::string key = path + ".loads[" + std::to_string(i) + "]";
+        ParamMap l(list[i], context.sceneFile, key);
+        const std::string set = l.text("set");
+        try {
+          if (l.has("traction")) {
+            model_->addTraction(model_->mesh().faceSet(set, key + ".set"), l.vec3("traction"));
+          } else if (l.has("pressure")) {
+            model_->addPressure(model_->mesh().faceSet(set, key + ".set"), l.number("pressure"));
+          } else if (l.has("nodal_force")) {
+            const Vec3 f = l.vec3("nodal_force");
+            for (Index n : model_->mesh().nodeSet(set, key + ".set"))
+              for (int d = 0; d < 3; ++d) model_->referenceLoad()[3 * n + static_cast<std::size_t>(d)] += f[d];
+          } else {
+            l.fail(list[i], key + " needs 'traction' or 'pressure' (face set) or 'nodal_force' (node set)");
+          }
+        } catch (const InputError& e) {
+          if (std::string(e.what()).find(context.sceneFile) == 0) throw;
+          l.fail(l.get("set"), e.what());
+        }
+        l.finish();
+      }
+    }
+    if (p.has("body_force")) model_->addBodyForce(p.vec3("body_force"));
+    model_->setLoadRamp(p.number("load_ramp", 0.0));
+    // Integrator.
+    ParamMap in = p.map("integrator");
+    integratorType_ = in.text("type");
+    force_ = in.flag("force", false);
+    NewtonOptions newton;
+    const bool relaxation = integratorType_ == "dynamic-relaxation";
+    newton.tolerance = in.number("tolerance", relaxation ? relaxation_.tolerance : newton.tolerance);
+    newton.maxIterations = in.integer("max_iterations", relaxation ? relaxation_.maxIterations : newton.maxIterations);
+    relaxation_.tolerance = newton.tolerance;
+    relaxation_.maxIterations = newton.maxIterations;
+    newton.linearSolver = in.text("linear_solver", newton.linearSolver);
+    if (newton.linearSolver != "direct" && newton.linearSolver != "cg")
+      in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct or cg");
+    if (integratorType_ == "newmark") {
+      NewmarkOptions o;
+      o.beta = in.number("beta", o.beta);
+      o.gamma = in.number("gamma", o.gamma);
+      const std::string mass = in.text("mass", "consistent");
+      if (mass != "consistent" && mass != "lumped") in.fail(in.get("mass"), in.path() + ".mass must be consistent or lumped");
+      o.lumpedMass = mass == "lumped";
+      o.newton = newton;
+      integrator_ = makeNewmark(*model_, o);
+    } else if (integratorType_ == "central-difference") {
+      CentralDifferenceOptions o;
+      o.damping = in.number("damping", 0.0);
+      model_->setMassScale(in.number("mass_scaling", 1.0));
+      integrator_ = makeCentralDifference(*model_, o);
+    } else if (integratorType_ == "static" || relaxation) {
+      staticNewton_ = newton;
+      if (relaxation) model_->setMassScale(in.number("mass_scaling", 1.0));
+    } else {
+      in.fail(in.get("type"), in.path() + ".type must be newmark, central-difference, static or dynamic-relaxation");
+    }
+    in.finish();
+    // Arlequin weighting 1 - w (Cheng 2022 Eq. 25): a profile sent by the
+    // coupler at setup wins over one in the params.
+    bool haveProfile = false;
+    WeightProfile profile;
+    if (p.has("arlequin")) {
+      ParamMap a = p.map("arlequin");
+      profile.kind = a.text("kind", "half-cosine");
+      const std::string axis = a.text("axis");
+      profile.axis = directionIndex(axis);
+      if (profile.axis < 0) a.fail(a.get("axis"), a.path() + ".axis must be x, y or z");
+      profile.start = a.number("start");
+      profile.end = a.number("end");
+      a.finish();
+      haveProfile = true;
+    }
+    if (context.inputs.hasWeightProfiles() && context.inputs.getWeightProfiles().size() > 0) {
+      const auto wp = context.inputs.getWeightProfiles()[0];
+      profile.kind = wp.getKind().cStr();
+      profile.axis = wp.getAxis();
+      profile.start = wp.getStart();
+      profile.end = wp.getEnd();
+      haveProfile = true;
+    }
+    if (haveProfile) {
+      try {
+        model_->setArlequinWeight(profile);
+      } catch (const InputError& e) {
+        p.fail(p.node(), path + ".arlequin: " + e.what());
+      }
+    }
+    // Coupling exports: named face sets as triangle meshes (+ quadrature points).
+    surfaces_.clear();
+    zones_.clear();
+    if (p.has("coupling")) {
+      ParamMap cp = p.map("coupling");
+      YAML::Node list = cp.has("surfaces") ? cp.get("surfaces") : YAML::Node(YAML::NodeType::Sequence);
+      if (!list.IsSequence()) cp.fail(list, cp.path() + ".surfaces must be a list of face set names");
+      if (cp.has("zones")) {
+        YAML::Node zl = cp.get("zones");
+        if (!zl.IsMap()) cp.fail(zl, cp.path() + ".zones must be a map of name: {box: {min, max}}");
+        for (const auto& kv : zl) {
+          const std::string zname = kv.first.as<std::string>();
+          ParamMap z(kv.second, context.sceneFile, cp.path() + ".zones." + zname);
+          ParamMap box = z.map("box");
+          const Vec3 lo = box.vec3("min"), hi = box.vec3("max");
+          box.finish();
+          z.finish();
+          try {
+            zones_.emplace_back(zname, model_->mesh(), lo, hi);
+          } catch (const InputError& e) {
+            z.fail(kv.second, e.what());
+          }
+        }
+      }
+      for (const auto& s : list) {
+        const std::string name = s.as<std::string>();
+        try {
+          surfaces_.emplace_back(name, model_->mesh(), model_->mesh().faceSet(name, cp.path() + ".surfaces"));
+        } catch (const InputError& e) {
+          cp.fail(s, e.what());
+        }
+      }
+      surfaceQuadrature_ = cp.flag("quadrature", false);
+      cp.finish();
+    }
+    if (p.has("output")) {
+      ParamMap o = p.map("output");
+      outputEvery_ = o.integer("every", 0);
+      const std::string file = o.text("file", context.instance + ".h5");
+      o.finish();
+      if (outputEvery_ < 0) o.fail(o.node(), o.path() + ".every must be >= 0");
+      if (outputEvery_ > 0) {
+        const std::filesystem::path dir = context.runDir.empty() ? std::filesystem::path(".") : std::filesystem::path(context.runDir);
+        snapshots_ = std::make_unique<SnapshotWriter>(dir / file, *model_);
+      }
+    }
+    p.finish();
+    // GMH: an external material takes its stresses from unit-cell results.
+    external_ = dynamic_cast<ExternalStressMaterial*>(&model_->material());
+    state_ = State{};
+    state_.resize(model_->numDofs());
+    if (external_) pointF_ = pointDeformationGradients();
+    if (integrator_) integrator_->initialise(state_);
+    if (snapshots_) snapshots_->write(*model_, state_);
+    fillCouplingOutputs(outputs);
+  } catch (const InputError& e) {
+    throw SolverError(Code::BAD_INPUT, e.what());
+  } catch (const SolveError& e) {
+    throw SolverError(Code::SOLVER_FAILURE, e.what());
+  }
+}
+
+void FemSolver::applyCouplingForces(proto::CouplingData::Reader inputs) {
+  auto& f = model_->couplingForce();
+  std::fill(f.begin(), f.end(), 0.0);
+  for (auto forces : inputs.getForces()) {
+    if (forces.getTarget() != proto::CouplingForces::Target::NODES) continue;
+    const auto ids = wire::view(forces.getIds());
+    const auto values = wire::view(forces.getForces());
+    if (values.size() != 3 * ids.size())
+      throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) + "': " +
+                                             std::to_string(values.size()) + " values for " +
+                                             std::to_string(ids.size()) + " nodes");
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      if (ids[k] >= model_->numNodes())
+        throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) +
+                                               "': node " + std::to_string(ids[k]) + " does not exist");
+      for (std::size_t d = 0; d < 3; ++d) {
+        if (!std::isfinite(values[3 * k + d]))
+          throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) +
+                                                 "': non-finite force on node " + std::to_string(ids[k]));
+        f[3 * ids[k] + d] += values[3 * k + d];
+      }
+    }
+  }
+}
+
+void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const {
+  if (!zones_.empty()) {
+    auto arrays = outputs.initArrays(static_cast<unsigned>(zones_.size() * VolumeZone::kArrays));
+    for (unsigned i = 0; i < zones_.size(); ++i)
+      zones_[i].fill(arrays, i * VolumeZone::kArrays, model_->mesh(), state_.u);
+  }
+  if (surfaces_.empty()) return;
+  auto meshes = outputs.initMeshes(static_cast<unsigned>(surfaces_.size()));
+  for (unsigned i = 0; i < surfaces_.size(); ++i) surfaces_[i].fillMesh(meshes[i], model_->mesh(), state_.u, state_.v);
+  if (!surfaceQuadrature_) return;
+  auto quads = outputs.initQuadratures(static_cast<unsigned>(surfaces_.size()));
+  for (unsigned i = 0; i < surfaces_.size(); ++i) surfaces_[i].fillQuadrature(quads[i], model_->mesh(), state_.u);
+}
+
+void FemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData::Builder outputs) {
+  if (!model_) throw SolverError(Code::UNEXPECTED, "advance before setup");
+  if (request.steps == 0) throw SolverError(Code::BAD_INPUT, "advance: steps must be at least 1");
+  if (!(request.dt > 0.0) || !std::isfinite(request.dt))
+    throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + std::to_string(request.dt));
+  const double crit = criticalDt();
+  if (crit > 0.0 && request.dt > crit && !force_)
+    throw SolverError(Code::BAD_INPUT, "advance: dt = " + std::to_string(request.dt) +
+                                           " s exceeds the critical step " + std::to_string(crit) +
+                                           " s of the explicit FEM (set integrator.force: true to run anyway)");
+  applyCouplingForces(request.inputs);
+  applyUnitCellResults(request.inputs);
+  try {
+    if (external_) {
+      // GMH (Liu 2016 Fig. 3): the stresses just received belong to the
+      // predicted positions: finish that step, then predict the next one and
+      // send its corotational strain increments. One step per exchange.
+      if (request.steps != 1)
+        throw SolverError(Code::BAD_INPUT, "advance: the external (GMH) material exchanges every step; got steps = " +
+                                               std::to_string(request.steps));
+      if (!integrator_) throw SolverError(Code::BAD_INPUT, "the external (GMH) material needs integrator.type: central-difference");
+      if (pendingDt_ > 0.0) integrator_->correct(state_, pendingDt_);
+      integrator_->predict(state_, request.dt);
+      pendingDt_ = request.dt;
+      if (snapshots_ && outputEvery_ > 0 && state_.step % static_cast<std::uint64_t>(outputEvery_) == 0)
+        snapshots_->write(*model_, state_);
+    }
+    for (std::uint32_t s = 0; s < request.steps && !external_; ++s) {
+      if (integrator_) {
+        integrator_->step(state_, request.dt);
+      } else {
+        state_.time += request.dt;
+        if (integratorType_ == "dynamic-relaxation")
+          relaxStatic(*model_, state_, relaxation_);
+        else
+          solveStatic(*model_, state_, staticNewton_);
+        ++state_.step;
+      }
+      if (snapshots_ && outputEvery_ > 0 && state_.step % static_cast<std::uint64_t>(outputEvery_) == 0)
+        snapshots_->write(*model_, state_);
+    }
+  } catch (const SolveError& e) {
+    throw SolverError(Code::SOLVER_FAILURE, e.what());
+  }
+  fillCouplingOutputs(outputs);
+  if (external_) fillUnitCellJobs(outputs, request.dt * request.steps);
+}
+
+std::vector<double> FemSolver::pointDeformationGradients() const {
+  const int np = model_->formulation().pointsPerElement();
+  std::vector<double> out(9 * model_->mesh().numElements() * static_cast<std::size_t>(np));
+  std::vector<MaterialPointState> pts(static_cast<std::size_t>(np));
+  // F does not depend on the stress: evaluate the kinematics only.
+  for (std::size_t e = 0; e < model_->mesh().numElements(); ++e) {
+    model_->formulation().pointStates(e, model_->gather(e, state_.u), pts.data());
+    for (int q = 0; q < np; ++q) {
+      const std::size_t p = e * static_cast<std::size_t>(np) + static_cast<std::size_t>(q);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) out[9 * p + static_cast<std::size_t>(3 * i + j)] = pts[static_cast<std::size_t>(q)].F(i, j);
+    }
+  }
+  return out;
+}
+
+void FemSolver::applyUnitCellResults(proto::CouplingData::Reader inputs) {
+  if (!inputs.hasUnitCellResults()) return;
+  for (auto results : inputs.getUnitCellResults()) {
+    if (!external_) throw SolverError(Code::BAD_INPUT, "unit-cell results received but the material is not 'external'");
+    const auto ids = wire::view(results.getCellIds());
+    const auto stresses = wire::view(results.getStresses());
+    if (stresses.size() != 9 * ids.size())
+      throw SolverError(Code::BAD_INPUT, "unit-cell results: " + std::to_string(stresses.size()) + " stress values for " +
+                                             std::to_string(ids.size()) + " cells (need 9 each)");
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      for (std::size_t c = 0; c < 9; ++c)
+        if (!std::isfinite(stresses[9 * k + c]))
+          throw SolverError(Code::BAD_INPUT, "unit-cell results: non-finite stress for cell " + std::to_string(ids[k]));
+      try {
+        external_->setCorotationalStress(ids[k], stresses.data() + 9 * k);
+      } catch (const InputError& e) {
+        throw SolverError(Code::BAD_INPUT, std::string("unit-cell results: ") + e.what());
+      }
+    }
+  }
+}
+
+void FemSolver::fillUnitCellJobs(proto::CouplingData::Builder outputs, double dt) {
+  // Liu 2016 Eqs. 60-61: corotational strain increment of every point over
+  // the exchange interval, from the midstep deformation gradient.
+  const std::vector<double> Fnew = pointDeformationGradients();
+  const std::size_t np = Fnew.size() / 9;
+  auto jobs = outputs.initUnitCellJobs(1)[0];
+  jobs.setDt(dt);
+  auto ids = jobs.initCellIds(static_cast<unsigned>(np));
+  auto inc = jobs.initStrainIncrements(static_cast<unsigned>(9 * np));
+  for (std::size_t p = 0; p < np; ++p) {
+    const Mat3 F0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pointF_.data() + 9 * p);
+    const Mat3 F1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(Fnew.data() + 9 * p);
+    const Mat3 d = corotational::strainIncrement(F0, F1).strainIncrement;
+    ids.set(static_cast<unsigned>(p), static_cast<std::uint32_t>(p));
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) inc.set(static_cast<unsigned>(9 * p + static_cast<std::size_t>(3 * i + j)), d(i, j));
+  }
+  pointF_ = Fnew;
+}
+
+void FemSolver::fields(const std::vector<std::string>& names, proto::CouplingData::Builder out) {
+  if (!model_) throw SolverError(Code::UNEXPECTED, "fields before setup");
+  std::vector<std::string> wanted = names;
+  if (wanted.empty()) wanted = {"displacement", "velocity", "position"};
+  std::vector<double> position(model_->mesh().X);
+  for (std::size_t d = 0; d < position.size(); ++d) position[d] += state_.u[d];
+  auto arrays = out.initArrays(static_cast<unsigned>(wanted.size()));
+  for (unsigned i = 0; i < wanted.size(); ++i) {
+    const std::string& n = wanted[i];
+    if (n == "displacement") wire::addArray(arrays, i, n, 3, state_.u);
+    else if (n == "velocity") wire::addArray(arrays, i, n, 3, state_.v);
+    else if (n == "position") wire::addArray(arrays, i, n, 3, position);
+    else throw SolverError(Code::BAD_INPUT, "fields: unknown field '" + n + "' (offered: displacement, velocity, position)");
+  }
+}
+
+std::uint64_t FemSolver::checkpoint(const std::string& path) {
+  if (!model_) throw SolverError(Code::UNEXPECTED, "checkpoint before setup");
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw SolverError(Code::SOLVER_FAILURE, "checkpoint: cannot write " + path);
+  auto put = [&](const void* p, std::size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); };
+  const std::uint64_t dofs = state_.u.size();
+  put(&kCheckpointMagic, 8);
+  put(&dofs, 8);
+  put(&state_.time, 8);
+  put(&state_.step, 8);
+  put(&state_.externalWork, 8);
+  for (const auto* v : {&state_.u, &state_.v, &state_.a, &state_.fApplied}) put(v->data(), 8 * v->size());
+  if (external_) {  // GMH state: corotational stresses and F at the last exchange
+    put(external_->stresses().data(), 8 * external_->stresses().size());
+    put(pointF_.data(), 8 * pointF_.size());
+    put(&pendingDt_, 8);
+  }
+  out.flush();
+  if (!out) throw SolverError(Code::SOLVER_FAILURE, "checkpoint: write to " + path + " failed");
+  return static_cast<std::uint64_t>(out.tellp());
+}
+
+void FemSolver::restore(const std::string& path) {
+  if (!model_) throw SolverError(Code::UNEXPECTED, "restore before setup");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SolverError(Code::BAD_INPUT, "restore: cannot read " + path);
+  auto get = [&](void* p, std::size_t n) {
+    in.read(static_cast<char*>(p), static_cast<std::streamsize>(n));
+    if (!in) throw SolverError(Code::BAD_INPUT, "restore: " + path + " is truncated");
+  };
+  std::uint64_t magic = 0, dofs = 0;
+  get(&magic, 8);
+  if (magic != kCheckpointMagic) throw SolverError(Code::BAD_INPUT, "restore: " + path + " is not an FEM checkpoint");
+  get(&dofs, 8);
+  if (dofs != state_.u.size())
+    throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds " + std::to_string(dofs) + " dofs, the model has " +
+                                           std::to_string(state_.u.size()));
+  State s;
+  s.resize(dofs);
+  get(&s.time, 8);
+  get(&s.step, 8);
+  get(&s.externalWork, 8);
+  for (auto* v : {&s.u, &s.v, &s.a, &s.fApplied}) get(v->data(), 8 * v->size());
+  if (external_) {
+    get(external_->stresses().data(), 8 * external_->stresses().size());
+    get(pointF_.data(), 8 * pointF_.size());
+    get(&pendingDt_, 8);
+  }
+  state_ = std::move(s);
+}
+
+double FemSolver::criticalDt() const { return integrator_ ? integrator_->criticalDt() : 0.0; }
+
+wire::NamedValues FemSolver::energies() const {
+  if (!model_) return {};
+  Energies e;
+  if (integrator_) {
+    e = integrator_->energies(state_);
+  } else {
+    std::vector<double> f;
+    ElementEnergy ee;
+    model_->internalForce(state_.u, f, ee);
+    e.strain = ee.strain;
+    e.hourglass = ee.hourglass;
+  }
+  return {{"kinetic", e.kinetic}, {"strain", e.strain}, {"hourglass", e.hourglass}, {"external_work", e.externalWork}};
+}
+
+std::size_t FemSolver::outputWordsHint() const { return model_ ? 10 * model_->numDofs() + 1024 : 1024; }
+
+void FemSolver::writeSnapshot() {
+  if (snapshots_) snapshots_->write(*model_, state_);
+}
+
+}  // namespace cosim::fem

@@ -1,0 +1,87 @@
+#include "cosim/fem/solver/snapshot_writer.hpp"
+
+#include <fstream>
+
+namespace cosim::fem {
+
+SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, const Model& model)
+    : file_(io::H5File::create(h5Path)), nodes_(model.numNodes()), elements_(model.mesh().numElements()) {
+  xdmf_ = h5Path;
+  xdmf_.replace_extension(".xdmf");
+  h5Name_ = h5Path.filename().string();
+  const Mesh& mesh = model.mesh();
+  std::vector<std::uint32_t> topology;
+  topology.reserve(8 * elements_);
+  for (const Hex& h : mesh.elements) topology.insert(topology.end(), h.begin(), h.end());
+  file_.writeArray("/mesh/coordinates", mesh.X, 3);
+  file_.writeArray("/mesh/topology", topology, 8);
+  file_.setAttribute("/mesh", "formulation", model.formulation().name());
+  file_.setAttribute("/mesh", "material", model.material().name());
+  file_.flush();
+}
+
+void SnapshotWriter::write(const Model& model, const State& state) {
+  const std::string g = "/snapshots/" + std::to_string(state.step);
+  std::vector<double> x(model.mesh().X);
+  for (std::size_t d = 0; d < x.size(); ++d) x[d] += state.u[d];
+  // Element averages of Cauchy stress sigma = F S F^T / J and Green strain (Voigt xx yy zz xy yz xz).
+  const int np = model.formulation().pointsPerElement();
+  std::vector<MaterialPointState> pts(static_cast<std::size_t>(np));
+  std::vector<double> stress(6 * elements_), strain(6 * elements_);
+  for (std::size_t e = 0; e < elements_; ++e) {
+    model.formulation().pointStates(e, model.gather(e, state.u), pts.data());
+    Mat3 s = Mat3::Zero(), eps = Mat3::Zero();
+    for (const auto& p : pts) {
+      s += p.F * p.S * p.F.transpose() / p.F.determinant();
+      eps += 0.5 * (p.F.transpose() * p.F - Mat3::Identity());
+    }
+    s /= np;
+    eps /= np;
+    const double sv[6] = {s(0, 0), s(1, 1), s(2, 2), s(0, 1), s(1, 2), s(0, 2)};
+    const double ev[6] = {eps(0, 0), eps(1, 1), eps(2, 2), eps(0, 1), eps(1, 2), eps(0, 2)};
+    std::copy(sv, sv + 6, stress.begin() + static_cast<long>(6 * e));
+    std::copy(ev, ev + 6, strain.begin() + static_cast<long>(6 * e));
+  }
+  file_.writeArray(g + "/position", x, 3);
+  file_.writeArray(g + "/displacement", state.u, 3);
+  file_.writeArray(g + "/velocity", state.v, 3);
+  file_.writeArray(g + "/stress", stress, 6);
+  file_.writeArray(g + "/strain", strain, 6);
+  file_.setAttribute(g, "time", state.time);
+  file_.flush();
+  steps_.emplace_back(state.step, state.time);
+  writeXdmf();
+}
+
+void SnapshotWriter::writeXdmf() const {
+  const std::string tmp = xdmf_.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    const std::string nn = std::to_string(nodes_), ne = std::to_string(elements_);
+    auto item = [&](const std::string& dims, const std::string& type, int precision, const std::string& path) {
+      return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + type + "\" Precision=\"" +
+             std::to_string(precision) + "\" Format=\"HDF\">" + h5Name_ + ":" + path + "</DataItem>";
+    };
+    out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+        << "  <Grid Name=\"fem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (const auto& [step, t] : steps_) {
+      const std::string g = "/snapshots/" + std::to_string(step);
+      out << "   <Grid Name=\"step " << step << "\" GridType=\"Uniform\">\n"
+          << "    <Time Value=\"" << t << "\"/>\n"
+          << "    <Topology TopologyType=\"Hexahedron\" NumberOfElements=\"" << ne << "\">"
+          << item(ne + " 8", "UInt", 4, "/mesh/topology") << "</Topology>\n"
+          << "    <Geometry GeometryType=\"XYZ\">" << item(nn + " 3", "Float", 8, g + "/position") << "</Geometry>\n";
+      for (const char* v : {"displacement", "velocity"})
+        out << "    <Attribute Name=\"" << v << "\" AttributeType=\"Vector\" Center=\"Node\">"
+            << item(nn + " 3", "Float", 8, g + "/" + v) << "</Attribute>\n";
+      for (const char* v : {"stress", "strain"})
+        out << "    <Attribute Name=\"" << v << "\" AttributeType=\"Tensor6\" Center=\"Cell\">"
+            << item(ne + " 6", "Float", 8, g + "/" + v) << "</Attribute>\n";
+      out << "   </Grid>\n";
+    }
+    out << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  }
+  std::filesystem::rename(tmp, xdmf_);
+}
+
+}  // namespace cosim::fem

@@ -1,0 +1,151 @@
+// Implicit Newmark-beta (Newmark 1959, as used by Cheng 2022 Sec. 3.2):
+//   u_{n+1} = u_n + dt v_n + dt^2 [(1/2 - beta) a_n + beta a_{n+1}]
+//   v_{n+1} = v_n + dt [(1 - gamma) a_n + gamma a_{n+1}]
+// with M a_{n+1} + f_int(u_{n+1}) = f_ext(t_{n+1}) solved by Newton on the
+// consistent tangent K_T + M / (beta dt^2) (Cheng Eqs. 5-7). beta = 1/4,
+// gamma = 1/2 (trapezoidal rule) conserves energy for linear systems.
+#include "cosim/fem/time/integrator.hpp"
+#include <cmath>
+
+#include "newton.hpp"
+
+namespace cosim::fem {
+namespace {
+
+class Newmark final : public Integrator {
+ public:
+  Newmark(Model& model, const NewmarkOptions& options) : Integrator(model), options_(options) {
+    if (!(options.beta > 0.0) || !(options.gamma >= 0.5))
+      throw InputError("newmark: need beta > 0 and gamma >= 1/2");
+    lumpedMass_ = options.lumpedMass;
+    solver_ = makeLinearSolver(options.newton.linearSolver);
+  }
+  std::string name() const override { return "newmark"; }
+
+  void initialise(State& state) override {
+    A_.build(model_.mesh(), model_.dofMap(), model_.numFree());
+    M_.build(model_.mesh(), model_.dofMap(), model_.numFree());
+    model_.assembleMass(M_);
+    applyPrescribed(state, state.time);
+    // Initial acceleration from M a0 = f_ext - f_int (free dofs).
+    std::vector<double> fint, fext;
+    ElementEnergy en;
+    model_.internalForce(state.u, fint, en);
+    model_.externalForce(state.time, fext);
+    model_.addFollowerLoads(state.time, state.u, fext);
+    const auto& map = model_.dofMap();
+    Eigen::VectorXd r(model_.numFree());
+    for (std::size_t d = 0; d < map.size(); ++d)
+      if (map[d] >= 0) r(map[d]) = fext[d] - fint[d];
+    Eigen::VectorXd a0;
+    if (lumpedMass_) {
+      a0.resize(r.size());
+      for (std::size_t d = 0; d < map.size(); ++d)
+        if (map[d] >= 0) a0(map[d]) = r(map[d]) / model_.lumpedMass()[d / 3];
+    } else {
+      auto massSolver = makeLinearSolver("direct");
+      massSolver->factorize(M_.matrix());
+      a0 = massSolver->solve(r);
+    }
+    for (std::size_t d = 0; d < map.size(); ++d) state.a[d] = map[d] >= 0 ? a0(map[d]) : 0.0;
+    state.fApplied = fext;
+  }
+
+  void step(State& state, double dt) override {
+    const double beta = options_.beta, gamma = options_.gamma;
+    const double t1 = state.time + dt;
+    const std::vector<double> uOld = state.u;
+    const std::vector<double> vOld = state.v, aOld = state.a;
+    const std::size_t n = state.u.size();
+    // Predictors (a_{n+1} = 0 part).
+    std::vector<double> uPred(n), vPred(n);
+    for (std::size_t d = 0; d < n; ++d) {
+      uPred[d] = uOld[d] + dt * vOld[d] + dt * dt * (0.5 - beta) * aOld[d];
+      vPred[d] = vOld[d] + dt * (1.0 - gamma) * aOld[d];
+    }
+    // Acceleration is the primary unknown (u = u_pred + beta dt^2 a): forming
+    // M a from a difference of nearly equal displacements would cost digits.
+    const double c0 = 1.0 / (beta * dt * dt);
+    for (std::size_t d = 0; d < n; ++d) state.a[d] = 0.0;
+    for (const Prescribed& p : model_.prescribed()) state.a[p.dof] = c0 * (p.displacement(t1) - uPred[p.dof]);
+    auto updateKinematics = [&] {
+      for (std::size_t d = 0; d < n; ++d) {
+        state.u[d] = uPred[d] + state.a[d] / c0;
+        state.v[d] = vPred[d] + gamma * dt * state.a[d];
+      }
+      for (const Prescribed& p : model_.prescribed()) state.u[p.dof] = p.displacement(t1);
+    };
+    const auto& map = model_.dofMap();
+    std::vector<double> fint, fext, fdead, Ma;
+    model_.externalForce(t1, fdead);
+    // Follower loads change with u: re-evaluated at every iterate (their load
+    // stiffness is not in the tangent, so Newton converges linearly then).
+    auto linearise = [&](Eigen::VectorXd& R, double& scale, bool) {
+      updateKinematics();
+      fext = fdead;
+      model_.addFollowerLoads(t1, state.u, fext);
+      ElementEnergy en;
+      model_.assembleTangent(state.u, A_, fint, en);
+      // A = K_T + c0 M on the fixed pattern.
+      double* av = A_.matrix().valuePtr();
+      const double* mv = M_.matrix().valuePtr();
+      if (lumpedMass_) {
+        const auto& lm = model_.lumpedMass();
+        const int* outer = A_.matrix().outerIndexPtr();
+        const int* inner = A_.matrix().innerIndexPtr();
+        std::vector<double> diag(static_cast<std::size_t>(model_.numFree()));
+        for (std::size_t d = 0; d < map.size(); ++d)
+          if (map[d] >= 0) diag[static_cast<std::size_t>(map[d])] = lm[d / 3];
+        for (int c = 0; c < A_.size(); ++c)
+          for (int k = outer[c]; k < outer[c + 1]; ++k)
+            if (inner[k] == c) av[k] += c0 * diag[static_cast<std::size_t>(c)];
+      } else {
+        for (long k = 0; k < A_.matrix().nonZeros(); ++k) av[k] += c0 * mv[k];
+      }
+      model_.massTimes(state.a, Ma, lumpedMass_);
+      R.resize(model_.numFree());
+      double s1 = 0, s2 = 0, s3 = 0;
+      for (std::size_t d = 0; d < map.size(); ++d) {
+        if (map[d] >= 0) R(map[d]) = Ma[d] + fint[d] - fext[d];
+        s1 += Ma[d] * Ma[d];
+        s2 += fint[d] * fint[d];
+        s3 += fext[d] * fext[d];
+      }
+      scale = std::sqrt(s1) + std::sqrt(s2) + std::sqrt(s3);
+    };
+    auto update = [&](const Eigen::VectorXd& du) {
+      double n2 = 0.0;
+      for (std::size_t d = 0; d < map.size(); ++d)
+        if (map[d] >= 0) {
+          state.a[d] += c0 * du(map[d]);
+          const double inc = uPred[d] + state.a[d] / c0 - uOld[d];
+          n2 += inc * inc;
+        }
+      return std::sqrt(n2);
+    };
+    report_ = detail::newtonLoop(model_, options_.newton, A_, *solver_, linearise, update,
+                                 "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")");
+    updateKinematics();
+    model_.checkFinite(state.u, "displacement");
+    // Applied forces: external on free dofs, reactions on prescribed dofs.
+    std::vector<double> fApplied = fext;
+    for (std::size_t d = 0; d < map.size(); ++d)
+      if (map[d] < 0) fApplied[d] = Ma[d] + fint[d];
+    accumulateWork(state, uOld, fApplied);
+    state.time = t1;
+    ++state.step;
+  }
+
+ private:
+  NewmarkOptions options_;
+  SparseSystem A_, M_;
+  std::unique_ptr<LinearSolver> solver_;
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> makeNewmark(Model& model, const NewmarkOptions& options) {
+  return std::make_unique<Newmark>(model, options);
+}
+
+}  // namespace cosim::fem

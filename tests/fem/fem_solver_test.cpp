@@ -1,0 +1,231 @@
+// The FemSolver adapter: scene parsing with named errors, the critical step
+// guard, energies, bit-for-bit checkpoint/restore, HDF5 + XDMF snapshots.
+#include <capnp/message.h>
+#include <yaml-cpp/yaml.h>
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+#include "cosim/fem/solver/fem_solver.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::fem {
+namespace {
+
+std::string scene(const std::string& integrator, const std::string& extra = "") {
+  return R"(scene: test
+solvers:
+  - name: other
+    kind: dem
+    params: {}
+  - name: beam
+    kind: fem
+    params:
+      mesh:
+        box: {min: [0, 0, 0], max: [0.8, 12, 0.8], divisions: [2, 15, 2]}
+      material: {model: st-venant-kirchhoff, E: 1.0e8, nu: 0.0, density: 1000}
+      formulation: incompatible-modes
+      sets:
+        clamp: {box: {min: [-1, -0.01, -1], max: [2, 0.01, 2]}}
+      boundary:
+        - {set: clamp, dofs: [x, y, z], value: 0.0}
+      loads:
+        - {set: ymax, traction: [0, 0, -156.25]}
+      integrator: )" + integrator + "\n" + extra;
+}
+
+struct Harness {
+  capnp::MallocMessageBuilder inMsg, outMsg;
+  proto::CouplingData::Builder in = inMsg.initRoot<proto::CouplingData>();
+  proto::CouplingData::Builder out = outMsg.initRoot<proto::CouplingData>();
+  void setup(FemSolver& s, const std::string& yaml, const std::string& runDir = "") {
+    wire::SetupContext c{"scene.yaml", yaml, "beam", runDir, in.asReader()};
+    s.setup(c, out);
+  }
+  void advance(FemSolver& s, std::uint32_t steps, double dt) {
+    wire::AdvanceRequest r;
+    r.steps = steps;
+    r.dt = dt;
+    r.inputs = in.asReader();
+    s.advance(r, out);
+  }
+};
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const wire::SolverError& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
+TEST(FemSolverAdapter, StaticCantileverThroughTheScene) {
+  FemSolver s;
+  Harness h;
+  h.setup(s, scene("{type: static}"));
+  h.advance(s, 1, 1.0);
+  double tip = 0.0;
+  const auto& nodes = s.model().mesh().nodeSet("ymax");
+  for (Index n : nodes) tip += -s.state().u[3 * n + 2] / static_cast<double>(nodes.size());
+  const double ref = 100.0 * 1728.0 / (3.0 * 1e8 * 0.8 * 0.8 * 0.8 * 0.8 / 12.0) + 100.0 * 12.0 / (5.0 / 6.0 * 5e7 * 0.64);
+  std::printf("[solver static] tip %.6e m, Timoshenko %.6e m\n", tip, ref);
+  EXPECT_LT(std::abs(tip - ref) / ref, 0.02);
+  const auto e = s.energies();
+  ASSERT_EQ(e.size(), 4u);
+  EXPECT_GT(e[1].second, 0.0);
+}
+
+TEST(FemSolverAdapter, UnknownKeyNamesKeyAndLine) {
+  FemSolver s;
+  Harness h;
+  const std::string msg = errorOf([&] { h.setup(s, scene("{type: static}", "      dampnig: 3\n")); });
+  EXPECT_NE(msg.find("unknown key 'dampnig' in solvers[1].params"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("scene.yaml:20"), std::string::npos) << msg;
+}
+
+TEST(FemSolverAdapter, MissingSetAndBadIntegratorAreNamed) {
+  FemSolver s;
+  Harness h;
+  std::string y = scene("{type: static}");
+  y.replace(y.find("{set: clamp"), 11, "{set: clampp");
+  const std::string msg = errorOf([&] { h.setup(s, y); });
+  EXPECT_NE(msg.find("'clampp'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("boundary[0]"), std::string::npos) << msg;
+  const std::string msg2 = errorOf([&] { h.setup(s, scene("{type: runge-kutta}")); });
+  EXPECT_NE(msg2.find("integrator.type"), std::string::npos) << msg2;
+}
+
+TEST(FemSolverAdapter, ExplicitRefusesStepAboveCritical) {
+  FemSolver s;
+  Harness h;
+  h.setup(s, scene("{type: central-difference}"));
+  const double crit = s.criticalDt();
+  ASSERT_GT(crit, 0.0);
+  const std::string msg = errorOf([&] { h.advance(s, 1, 1.01 * crit); });
+  EXPECT_NE(msg.find("exceeds the critical step"), std::string::npos) << msg;
+  h.advance(s, 10, 0.9 * crit);
+  EXPECT_EQ(s.step(), 10u);
+  FemSolver forced;
+  Harness h2;
+  h2.setup(forced, scene("{type: central-difference, force: true}"));
+  EXPECT_NO_THROW(h2.advance(forced, 1, 1.01 * crit));
+}
+
+void checkpointRoundTrip(const std::string& integrator, double dt) {
+  const auto dir = std::filesystem::temp_directory_path() / ("fem_ckpt_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  FemSolver a, b;
+  Harness ha, hb;
+  ha.setup(a, scene(integrator));
+  hb.setup(b, scene(integrator));
+  ha.advance(a, 20, dt);
+  const std::string path = (dir / "state.bin").string();
+  EXPECT_GT(a.checkpoint(path), 0u);
+  ha.advance(a, 30, dt);
+  b.restore(path);
+  EXPECT_EQ(b.step(), 20u);
+  hb.advance(b, 30, dt);
+  EXPECT_EQ(a.step(), b.step());
+  EXPECT_EQ(std::memcmp(&a.state().time, &b.state().time, sizeof(double)), 0);
+  ASSERT_EQ(a.state().u.size(), b.state().u.size());
+  EXPECT_EQ(std::memcmp(a.state().u.data(), b.state().u.data(), 8 * a.state().u.size()), 0);
+  EXPECT_EQ(std::memcmp(a.state().v.data(), b.state().v.data(), 8 * a.state().v.size()), 0);
+  double umax = 0.0;
+  for (double u : a.state().u) umax = std::max(umax, std::abs(u));
+  EXPECT_GT(umax, 0.0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FemSolverAdapter, CheckpointRestoreIsBitForBitExplicit) { checkpointRoundTrip("{type: central-difference}", 1e-4); }
+TEST(FemSolverAdapter, CheckpointRestoreIsBitForBitNewmark) { checkpointRoundTrip("{type: newmark}", 1e-3); }
+
+TEST(FemSolverAdapter, FieldsAndSnapshots) {
+  const auto dir = std::filesystem::temp_directory_path() / ("fem_out_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  FemSolver s;
+  Harness h;
+  h.setup(s, scene("{type: newmark}", "      output: {every: 5, file: beam.h5}\n"), dir.string());
+  h.advance(s, 10, 1e-3);
+  capnp::MallocMessageBuilder msg;
+  auto out = msg.initRoot<proto::CouplingData>();
+  s.fields({}, out);
+  ASSERT_EQ(out.getArrays().size(), 3u);
+  EXPECT_EQ(std::string(out.getArrays()[0].getName().cStr()), "displacement");
+  EXPECT_EQ(out.getArrays()[0].getValues().size(), s.model().numDofs());
+  std::ifstream x(dir / "beam.xdmf");
+  std::stringstream text;
+  text << x.rdbuf();
+  EXPECT_NE(text.str().find("TopologyType=\"Hexahedron\""), std::string::npos);
+  EXPECT_NE(text.str().find("beam.h5:/snapshots/10/displacement"), std::string::npos);
+  {
+    auto f = cosim::io::H5File::openReadOnly(dir / "beam.h5");
+    EXPECT_EQ(f.shape("/snapshots/10/stress")[1], 6u);
+    EXPECT_EQ(f.shape("/mesh/topology")[0], s.model().mesh().numElements());
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cosim::fem
+
+namespace cosim::fem {
+namespace {
+
+// Every scene in configs/fem sets up (the first solver of each).
+TEST(FemSolverAdapter, ConfigsSetUp) {
+  const char* src = std::getenv("COSIM_SOURCE_DIR");
+  const std::filesystem::path dir = std::filesystem::path(src ? src : COSIM_FEM_SOURCE_DIR) / "configs" / "fem";
+  const auto run = std::filesystem::temp_directory_path() / ("fem_cfg_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(run);
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".yaml") continue;
+    std::ifstream in(entry.path());
+    std::stringstream text;
+    text << in.rdbuf();
+    const YAML::Node root = YAML::Load(text.str());
+    capnp::MallocMessageBuilder inMsg, outMsg;
+    auto inputs = inMsg.initRoot<proto::CouplingData>();
+    FemSolver s;
+    wire::SetupContext c{entry.path().string(), text.str(), root["solvers"][0]["name"].as<std::string>(), run.string(),
+                         inputs.asReader()};
+    EXPECT_NO_THROW(s.setup(c, outMsg.initRoot<proto::CouplingData>())) << entry.path();
+    ++count;
+  }
+  EXPECT_GE(count, 3);
+  std::filesystem::remove_all(run);
+}
+
+}  // namespace
+}  // namespace cosim::fem
+
+namespace cosim::fem {
+namespace {
+
+// Dynamic relaxation reaches the Newton static solution of the cantilever.
+TEST(FemSolverAdapter, DynamicRelaxationMatchesStatic) {
+  FemSolver relaxed, newton;
+  Harness h1, h2;
+  h1.setup(relaxed, scene("{type: dynamic-relaxation, tolerance: 1.0e-7}"));
+  h2.setup(newton, scene("{type: static}"));
+  h1.advance(relaxed, 1, 1.0);
+  h2.advance(newton, 1, 1.0);
+  double tipR = 0.0, tipN = 0.0;
+  const auto& nodes = newton.model().mesh().nodeSet("ymax");
+  for (Index n : nodes) {
+    tipR -= relaxed.state().u[3 * n + 2] / static_cast<double>(nodes.size());
+    tipN -= newton.state().u[3 * n + 2] / static_cast<double>(nodes.size());
+  }
+  std::printf("[dynamic relaxation] tip %.6e m, Newton %.6e m, difference %.3e\n", tipR, tipN, std::abs(tipR - tipN) / tipN);
+  EXPECT_LT(std::abs(tipR - tipN) / tipN, 1e-3);
+}
+
+}  // namespace
+}  // namespace cosim::fem
