@@ -58,7 +58,7 @@ TEST_P(PdAffine, InteriorForceVanishesAndCorrespondenceFIsExact) {
   EXPECT_LT(errF, 1e-12);
 }
 
-INSTANTIATE_TEST_SUITE_P(Models, PdAffine,
+INSTANTIATE_TEST_SUITE_P(Pd, PdAffine,
                          ::testing::Values(AffineCase{"pmb", false}, AffineCase{"pmb", true},
                                            AffineCase{"lps", false}, AffineCase{"lps", true}),
                          [](const auto& param_info) {

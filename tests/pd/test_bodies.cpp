@@ -214,5 +214,53 @@ TEST(PdBodies, SeveralBodiesKeepTheirOwnMaterialAndHorizon) {
   EXPECT_DOUBLE_EQ(sys.criticalTimeStep(), 0.5e-3 / b.material.cflWaveSpeed());
 }
 
+TEST(PdBoundary, FixedVelocityAndNormalOnlyConstraints) {
+  const double h = 1e-3;
+  PdSystem sys;
+  auto spec = test::box("b", "lps", 8, 8, 8, h, 3.0);
+  spec.initialVelocity = {1.0, 2.0, 0.0};
+  sys.addBody(spec);
+  BoundaryCondition normal;  // the x-min face may slide in y and z only
+  normal.where.hasBox = true;
+  normal.where.min = {-1, 2 * h, 2 * h};
+  normal.where.max = {0.6 * h, 6 * h, 6 * h};
+  normal.type = Constraint::NormalOnly;
+  sys.addBoundaryCondition(normal);
+  BoundaryCondition driven;
+  driven.where.hasBox = true;
+  driven.where.min = {7 * h, -1, -1};
+  driven.where.max = {1, 1, 1};
+  driven.type = Constraint::Velocity;
+  driven.velocity = {0.0, 0.0, -3.0};
+  sys.addBoundaryCondition(driven);
+  BoundaryCondition fixed;
+  fixed.where.hasBox = true;
+  fixed.where.min = {3 * h, 7 * h, -1};
+  fixed.where.max = {5 * h, 1, 1};
+  fixed.type = Constraint::Fixed;
+  sys.addBoundaryCondition(fixed);
+  sys.finalise();
+  for (int s = 0; s < 5; ++s) sys.step(0.25 * sys.criticalTimeStep());
+  const auto& p = sys.particles();
+  const auto& bcs = sys.boundaryConditions();
+  ASSERT_EQ(bcs[0].particles.size(), 16u);  // 4 x 4 face particles, all with a normal
+  for (std::size_t q = 0; q < bcs[0].particles.size(); ++q) {
+    const auto i = bcs[0].particles[q];
+    EXPECT_NEAR(bcs[0].normals[3 * q], -1.0, 0.2);  // outward, roughly -x
+    const double* n = &bcs[0].normals[3 * q];
+    EXPECT_NEAR(p.velocity[3 * i] * n[0] + p.velocity[3 * i + 1] * n[1] + p.velocity[3 * i + 2] * n[2], 0.0, 1e-12);
+    EXPECT_GT(std::abs(p.velocity[3 * i + 1]), 0.5);  // tangential motion kept
+  }
+  for (const auto i : bcs[1].particles) {
+    EXPECT_EQ(p.velocity[3 * i + 2], -3.0);
+    EXPECT_EQ(p.velocity[3 * i], 0.0);
+  }
+  for (const auto i : bcs[2].particles)
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(p.velocity[3 * i + a], 0.0);
+      EXPECT_EQ(p.displacement[3 * i + a], 0.0);
+    }
+}
+
 }  // namespace
 }  // namespace cosim::pd

@@ -62,7 +62,7 @@ TEST_P(PdElasticEnergy, InteriorDensityMatchesClassicalWithinOnePercent) {
   EXPECT_LT(std::abs(err), 0.01);
 }
 
-INSTANTIATE_TEST_SUITE_P(Cases, PdElasticEnergy,
+INSTANTIATE_TEST_SUITE_P(Pd, PdElasticEnergy,
                          ::testing::Values(EnergyCase{"pmb", 0.25, false}, EnergyCase{"pmb", 0.25, true},
                                            EnergyCase{"lps", 0.25, false}, EnergyCase{"lps", 0.25, true},
                                            EnergyCase{"lps", 0.35, false}, EnergyCase{"lps", 0.35, true}),

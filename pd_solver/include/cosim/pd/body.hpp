@@ -1,0 +1,61 @@
+#pragma once
+// Discretisation of one peridynamic body: a regular lattice filling a box,
+// sphere or cylinder, or a point cloud with volumes read from a file.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "cosim/pd/bonds.hpp"
+#include "cosim/pd/material.hpp"
+
+namespace cosim::pd {
+
+using Vec3 = std::array<double, 3>;
+
+enum class Shape { Box, Sphere, Cylinder, Points };
+
+/// Options of the force model of one body (the registry picks the model by name).
+struct ModelOptions {
+  std::string influence = "constant";  // LPS influence function w<xi>
+  bool surfaceCorrection = false;      // energy-method correction near surfaces
+  double criticalStretch = 0.0;        // PMB bond breakage; 0 = off
+  /// PMB spring constant: "continuum" c = 18 K / (pi delta^4) (Hartmann Eq. 10)
+  /// or "discrete" (same, with pi delta^4 replaced by its lattice quadrature).
+  std::string micromodulus = "continuum";
+  PartialVolume partialVolume = PartialVolume::Centered;
+};
+
+struct BodySpec {
+  std::string name;
+  Shape shape = Shape::Box;
+  Vec3 min{}, max{};        // box
+  Vec3 center{};            // sphere, cylinder (mid-point of the axis)
+  double radius = 0.0;      // sphere, cylinder
+  double length = 0.0;      // cylinder
+  int axis = 2;             // cylinder axis 0/1/2
+  std::string pointsFile;   // points: "x y z volume" per line
+  double spacing = 0.0;     // lattice spacing h (points: cbrt of the mean volume when 0)
+  double horizonFactor = 3.0;  // delta = horizonFactor * h
+  Material material;
+  std::string model = "pmb";
+  ModelOptions options;
+  Vec3 initialVelocity{};
+};
+
+struct PointCloud {
+  std::vector<double> positions;  // 3 per point
+  std::vector<double> volumes;
+};
+
+/// Lattice points (cell centres of spacing h) inside the shape, volume h^3 each.
+/// Throws std::invalid_argument naming the body for a non-positive spacing or size.
+PointCloud discretise(const BodySpec& spec);
+
+/// Reads "x y z volume" lines ('#' starts a comment). Throws naming file and
+/// line for unreadable lines, NaN/Inf values or non-positive volumes.
+PointCloud readPointFile(const std::string& path);
+
+/// True when a point lies inside the analytic shape (points bodies: never).
+bool insideShape(const BodySpec& spec, const double x[3], double tolerance);
+
+}  // namespace cosim::pd

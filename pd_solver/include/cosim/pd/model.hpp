@@ -1,0 +1,78 @@
+#pragma once
+// Peridynamic force models (PdModel) behind a registry keyed by the name a
+// scene uses ("pmb", "lps"). Adding a model is adding one file that registers
+// itself with PD_REGISTER_MODEL.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/pd/body.hpp"
+#include "cosim/pd/bonds.hpp"
+#include "cosim/pd/particles.hpp"
+
+namespace cosim::pd {
+
+/// What a model sees of one body.
+struct BodyContext {
+  const Particles& particles;
+  const Bonds& bonds;
+  std::size_t begin = 0, end = 0;  // particle range of the body
+  const Material& material;
+  double horizon = 0.0;
+  double spacing = 0.0;
+  const ModelOptions& options;
+};
+
+class PdModel {
+ public:
+  virtual ~PdModel() = default;
+  virtual std::string name() const = 0;
+  /// Precomputes reference quantities (weighted volumes, correction factors).
+  virtual void initialise(const BodyContext& body) = 0;
+  /// Writes the peridynamic force f^PD of every particle of the body into
+  /// particles.internalForce (overwrites the body's range).
+  virtual void computeForces(const BodyContext& body, std::vector<double>& force) = 0;
+  /// Total strain energy of the body [J].
+  virtual double strainEnergy(const BodyContext& body) const = 0;
+  /// Strain energy density per particle [J/m^3] (size end - begin).
+  virtual std::vector<double> energyDensity(const BodyContext& body) const = 0;
+  /// Marks bonds that fail in the current configuration; returns how many broke.
+  virtual std::size_t breakBonds(const BodyContext&, Bonds&) { return 0; }
+  /// Stiffness bound per unit volume used by dynamic relaxation's fictitious density.
+  virtual double stiffnessBound(const BodyContext& body, std::size_t particle) const = 0;
+};
+
+using ModelFactory = std::function<std::unique_ptr<PdModel>()>;
+
+class ModelRegistry {
+ public:
+  static ModelRegistry& instance();
+  void add(const std::string& name, ModelFactory factory);
+  /// Throws std::invalid_argument listing the known names.
+  std::unique_ptr<PdModel> create(const std::string& name) const;
+  bool has(const std::string& name) const;
+  std::vector<std::string> names() const;
+
+ private:
+  std::vector<std::pair<std::string, ModelFactory>> entries_;
+};
+
+struct ModelRegistration {
+  ModelRegistration(const std::string& name, ModelFactory factory) {
+    ModelRegistry::instance().add(name, std::move(factory));
+  }
+};
+
+#define PD_REGISTER_MODEL(NAME, TYPE) \
+  static const ::cosim::pd::ModelRegistration pdModelRegistration_##TYPE{ \
+      NAME, [] { return std::unique_ptr<::cosim::pd::PdModel>(new TYPE()); }}
+
+/// Influence function w<xi> of the LPS model, by name: "constant" (w = 1),
+/// "inverse" (w = delta / |xi|), "gaussian" (w = exp(-|xi|^2 / delta^2)).
+std::function<double(double, double)> influenceFunction(const std::string& name);
+
+/// Damage index per particle: 1 - (unbroken weighted family volume) / (full).
+std::vector<double> damage(const BodyContext& body);
+
+}  // namespace cosim::pd

@@ -1,0 +1,48 @@
+#pragma once
+// PdSolver: the peridynamics solver behind the wire's Solver interface.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/pd/scene.hpp"
+#include "cosim/pd/snapshot.hpp"
+#include "cosim/pd/system.hpp"
+#include "cosim/wire/solver.hpp"
+
+namespace cosim::pd {
+
+class PdSolver final : public cosim::wire::Solver {
+ public:
+  cosim::wire::SolverInfo info() const override;
+  void setup(const cosim::wire::SetupContext& context, cosim::proto::CouplingData::Builder outputs) override;
+  void advance(const cosim::wire::AdvanceRequest& request, cosim::proto::CouplingData::Builder outputs) override;
+  void fields(const std::vector<std::string>& names, cosim::proto::CouplingData::Builder out) override;
+  std::uint64_t checkpoint(const std::string& path) override;
+  void restore(const std::string& path) override;
+  double time() const override;
+  std::uint64_t step() const override;
+  double criticalDt() const override;
+  cosim::wire::NamedValues energies() const override;
+  std::size_t outputWordsHint() const override;
+
+  PdSystem& system() { return system_; }
+  const std::vector<std::uint32_t>& hybridParticles() const { return hybrid_; }
+  /// Field names fields() offers.
+  static const std::vector<std::string>& fieldNames();
+
+ private:
+  void requireSetup(const char* what) const;
+  void readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into) const;
+  void writeHybrid(cosim::proto::CouplingData::Builder out) const;
+  void checkFinite() const;
+
+  PdConfig config_;
+  PdSystem system_;
+  std::vector<std::uint32_t> hybrid_;
+  std::vector<double> hybridHorizon_;  // per body
+  std::unique_ptr<SnapshotWriter> snapshots_;
+  std::uint64_t advances_ = 0;
+  bool ready_ = false;
+};
+
+}  // namespace cosim::pd

@@ -1,0 +1,37 @@
+#pragma once
+// The pd_solver's `params:` section of a scene, read with yaml-cpp. Errors are
+// std::invalid_argument "<sceneFile>:<line>: message" naming the key or body.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "cosim/pd/system.hpp"
+
+namespace cosim::pd {
+
+struct PdConfig {
+  std::vector<BodySpec> bodies;
+  std::vector<int> bodyLines;  // scene line of each body entry
+  std::vector<BoundaryCondition> boundaries;
+  std::vector<AppliedLoad> loads;
+  Vec3 bodyForce{};
+  bool staggered = false;    // integrator: staggered (Hartmann Eq. 47) | verlet
+  bool interpolate = false;  // inputs: interpolate | hold
+  bool force = false;        // accept dt above the critical step
+  bool hybrid = true;        // export hybrid surface particles
+  bool quasiStatic = false;  // advance = adaptive dynamic relaxation to equilibrium
+  double relaxTolerance = 1e-6;
+  std::size_t relaxMaxIterations = 100000;
+  std::string outputFile;    // HDF5 snapshots (relative to the run directory)
+  std::uint64_t outputEvery = 0;  // snapshot every N advance requests (0 = never)
+};
+
+PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile,
+                       const std::string& baseDir);
+
+/// Builds (and finalises) a system from a config; body errors name the line.
+void buildSystem(const PdConfig& config, PdSystem& system, const std::string& sceneFile);
+
+}  // namespace cosim::pd

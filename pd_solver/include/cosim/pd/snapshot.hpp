@@ -1,0 +1,29 @@
+#pragma once
+// HDF5 point snapshots with an XDMF sidecar (Polyvertex topology) that
+// ParaView opens directly.
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "cosim/io/h5_file.hpp"
+#include "cosim/pd/system.hpp"
+
+namespace cosim::pd {
+
+class SnapshotWriter {
+ public:
+  explicit SnapshotWriter(const std::filesystem::path& h5Path);
+  /// Writes /snapshots/<step>/{position, displacement, velocity, damage,
+  /// strain, von_mises} and rewrites the .xmf sidecar listing every snapshot.
+  void write(const PdSystem& system);
+
+ private:
+  void writeXdmf() const;
+  std::filesystem::path path_;
+  cosim::io::H5File file_;
+  struct Entry { std::uint64_t step; double time; std::size_t n; };
+  std::vector<Entry> entries_;
+};
+
+}  // namespace cosim::pd

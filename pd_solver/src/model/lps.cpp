@@ -1,0 +1,309 @@
+// Linear peridynamic solid (state-based), Hartmann 2022 Eqs. 13-25:
+// weighted volume m (Eq. 19), dilatation theta (Eq. 20), deviatoric extension
+// (Eq. 22), scalar force state t = 3 K theta w |xi| / m + alpha w e^d (Eq. 25)
+// with alpha = 15 G / m, forces f_I = sum (t_IJ + t_JI) M_IJ V_I V_J (Eq. 14).
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "cosim/pd/model.hpp"
+#include "surface_factors.hpp"
+
+namespace cosim::pd {
+namespace {
+
+class Lps final : public PdModel {
+ public:
+  std::string name() const override { return "lps"; }
+
+  void initialise(const BodyContext& body) override {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    const auto w = influenceFunction(body.options.influence);
+    const std::size_t n = body.end - body.begin;
+    K_ = body.material.bulkModulus();
+    G_ = body.material.shearModulus();
+    weight_.resize(b.count());
+    dilatationFactor_.assign(b.count(), 1.0);
+    deviatoricFactor_.assign(b.count(), 1.0);
+    m_.assign(n, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        // Partial volume folded into the weight: w beta.
+        weight_[k] = w(b.length[k], body.horizon) * b.volumeFraction[k];
+        m_[i] += weight_[k] * b.length[k] * b.length[k] * p.volume[b.neighbor[k]];  // Eq. 19
+      }
+    buildReverse(body);
+    if (body.options.surfaceCorrection) surfaceCorrection(body);
+    t_.assign(b.count(), 0.0);
+    e_.assign(b.count(), 0.0);
+    theta_.assign(n, 0.0);
+  }
+
+  void computeForces(const BodyContext& body, std::vector<double>& force) override {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    const long n = static_cast<long>(body.end - body.begin);
+    updateExtensions(body);
+    if (!corrected_) {
+      uncorrectedForces(body, force);
+      return;
+    }
+#pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
+    for (long il = 0; il < n; ++il) scalarForceState(body, static_cast<std::size_t>(il));
+    const double* X = p.reference.data();
+    const double* u = p.displacement.data();
+#pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
+    for (long il = 0; il < n; ++il) {
+      const std::size_t i = body.begin + static_cast<std::size_t>(il);
+      double f[3] = {0, 0, 0};
+      for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+        if (b.broken[k]) continue;
+        const std::size_t j = b.neighbor[k];
+        double y[3];
+        for (int a = 0; a < 3; ++a) y[a] = (X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]);
+        // Eq. 14 with Eq. 23: (T_I<xi_IJ> - T_J<xi_JI>) = (t_IJ + t_JI) M_IJ;
+        // |Y| = e + |xi| from the extension pass (no second square root).
+        const double s = (t_[k] + t_[reverse_[k]]) * b.volumeFraction[k] * p.volume[j] / (e_[k] + b.length[k]);
+        for (int a = 0; a < 3; ++a) f[a] += s * y[a];
+      }
+      for (int a = 0; a < 3; ++a) force[3 * i + a] = f[a] * p.volume[i];
+    }
+  }
+
+  std::vector<double> energyDensity(const BodyContext& body) const override {
+    updateExtensions(body);
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    std::vector<double> out(body.end - body.begin, 0.0);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      if (!(m_[i] > 0.0)) continue;
+      const double alpha = 15.0 * G_ / m_[i];
+      double dev = 0.0;
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        if (b.broken[k]) continue;
+        const double ed = e_[k] - theta_[i] * b.length[k] / 3.0;  // Eq. 22
+        dev += deviatoricFactor_[k] * weight_[k] * ed * ed * p.volume[b.neighbor[k]];
+      }
+      out[i] = 0.5 * K_ * theta_[i] * theta_[i] + 0.5 * alpha * dev;  // Eq. 24
+    }
+    return out;
+  }
+
+  double strainEnergy(const BodyContext& body) const override {
+    const auto w = energyDensity(body);
+    double e = 0.0;
+    for (std::size_t i = 0; i < w.size(); ++i) e += w[i] * body.particles.volume[body.begin + i];
+    return e;
+  }
+
+  double stiffnessBound(const BodyContext& body, std::size_t il) const override {
+    // Bond-spring equivalent of the P-wave modulus: 18 (K + 4G/3) / (pi delta^4).
+    const double c = 18.0 * (K_ + 4.0 * G_ / 3.0) / (3.141592653589793 * std::pow(body.horizon, 4));
+    const auto& b = body.bonds;
+    double k = 0.0;
+    for (std::size_t q = b.offset[il]; q < b.offset[il + 1]; ++q)
+      k += c * b.volumeFraction[q] * body.particles.volume[b.neighbor[q]] / b.length[q];
+    return 2.0 * k;
+  }
+
+ private:
+  // Bond index of j -> i for every bond i -> j (rows are sorted by partner).
+  void buildReverse(const BodyContext& body) {
+    const auto& b = body.bonds;
+    reverse_.assign(b.count(), 0);
+    for (std::size_t i = 0; i < b.rows(); ++i)
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        const std::size_t jl = b.neighbor[k] - body.begin;
+        const std::uint32_t gi = static_cast<std::uint32_t>(body.begin + i);
+        std::size_t lo = b.offset[jl], hi = b.offset[jl + 1];
+        while (lo < hi) {
+          const std::size_t mid = (lo + hi) / 2;
+          if (b.neighbor[mid] < gi) lo = mid + 1; else hi = mid;
+        }
+        reverse_[k] = lo;
+      }
+  }
+
+  // Extension e (Eq. 18) per bond and dilatation theta (Eq. 20) per particle.
+  // Deformed bonds are differences of current positions, x_j - x_i with
+  // x = X + u rounded first, so Y_JI = -Y_IJ exactly and e_IJ = e_JI: forces
+  // of a pair cancel to round-off and momentum is conserved.
+  void updateExtensions(const BodyContext& body) const {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    const double* X = p.reference.data();
+    const double* u = p.displacement.data();
+    const long n = static_cast<long>(body.end - body.begin);
+#pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
+    for (long il = 0; il < n; ++il) {
+      const std::size_t i = body.begin + static_cast<std::size_t>(il);
+      double th = 0.0;
+      for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+        const std::size_t j = b.neighbor[k];
+        double y2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+          const double y = (X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]);
+          y2 += y * y;
+        }
+        e_[k] = std::sqrt(y2) - b.length[k];
+        if (!b.broken[k])
+          th += dilatationFactor_[k] * weight_[k] * b.length[k] * e_[k] * p.volume[j];
+      }
+      theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
+    }
+  }
+
+  // Without surface correction every factor is 1 and t_IJ = (A_I w |xi| + B_I w e)
+  // with per-particle A = 3 K theta / m - alpha theta / 3, B = alpha
+  // (Eq. 25 with Eq. 22), so t_IJ + t_JI needs only per-particle values of
+  // the partner: one pass over the bonds, no gather of the partner's bond.
+  void uncorrectedForces(const BodyContext& body, std::vector<double>& force) {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    const long n = static_cast<long>(body.end - body.begin);
+    coefA_.resize(static_cast<std::size_t>(n));
+    coefB_.resize(static_cast<std::size_t>(n));
+    for (std::size_t il = 0; il < coefA_.size(); ++il) {
+      const double alpha = m_[il] > 0.0 ? 15.0 * G_ / m_[il] : 0.0;
+      coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha * theta_[il] / 3.0 : 0.0;
+      coefB_[il] = alpha;
+    }
+    const double* X = p.reference.data();
+    const double* u = p.displacement.data();
+#pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
+    for (long il = 0; il < n; ++il) {
+      const std::size_t i = body.begin + static_cast<std::size_t>(il);
+      const double Ai = coefA_[static_cast<std::size_t>(il)], Bi = coefB_[static_cast<std::size_t>(il)];
+      double f[3] = {0, 0, 0};
+      for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+        if (b.broken[k]) continue;
+        const std::size_t j = b.neighbor[k];
+        const std::size_t jl = j - body.begin;
+        const double w = weight_[k];  // w beta
+        const double L = b.length[k];
+        const double tSum = (Ai + coefA_[jl]) * L + (Bi + coefB_[jl]) * e_[k];
+        const double s = tSum * w * p.volume[j] / (e_[k] + L);
+        for (int a = 0; a < 3; ++a) f[a] += s * ((X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]));
+      }
+      for (int a = 0; a < 3; ++a) force[3 * i + a] = f[a] * p.volume[i];
+    }
+  }
+
+  // Scalar force state t_IJ (Eq. 25). With bond-wise surface factors the
+  // deviatoric energy also depends on theta through e^d, which adds the
+  // term -(alpha/3) S (3/m) d w |xi| (S = sum h w e^d |xi| V) so forces stay
+  // the exact derivative of the energy; S = 0 without correction.
+  void scalarForceState(const BodyContext& body, std::size_t il) {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    if (!(m_[il] > 0.0)) return;
+    const double alpha = 15.0 * G_ / m_[il];
+    double S = 0.0;
+    if (corrected_)
+      for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+        if (b.broken[k]) continue;
+        const double ed = e_[k] - theta_[il] * b.length[k] / 3.0;
+        S += deviatoricFactor_[k] * weight_[k] * ed * b.length[k] * p.volume[b.neighbor[k]];
+      }
+    const double iso = 3.0 * (K_ * theta_[il] - alpha * S / 3.0) / m_[il];
+    for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+      if (b.broken[k]) { t_[k] = 0.0; continue; }
+      const double ed = e_[k] - theta_[il] * b.length[k] / 3.0;
+      // Partial volume beta sits in weight_ and is divided out here: the force
+      // loop multiplies by beta V_J once.
+      const double w = weight_[k] / b.volumeFraction[k];
+      t_[k] = iso * dilatationFactor_[k] * w * b.length[k] + alpha * deviatoricFactor_[k] * w * ed;
+    }
+  }
+
+  // Surface correction: two per-particle tensors replace the scalar factors
+  // of the complete family, so near-surface particles respond like the bulk.
+  //  - Dilatation: theta_i = sum (n^T M_i n) w |xi| e V with the symmetric M_i
+  //    solving sum w V (n^T M n) xi (x) xi = I, so theta = tr(eps) for every
+  //    small affine strain whatever the family's shape ("position-aware"
+  //    dilatation; Mitchell, Silling & Littlewood 2015 use the same idea).
+  //  - Deviatoric: bond factor h = n^T H_i n with a diagonal H_i chosen so the
+  //    deviatoric energy of the three axial deviators (the deviatoric parts of
+  //    uniaxial strain or stress along x, y, z) equals the complete family's,
+  //    scaled by m_i / m_full as alpha = 15G/m. (Off-diagonal H would be
+  //    invisible to reflection-symmetric families: that system is singular.)
+  // In a complete cubic-lattice family M = (3/m) I and H = I: Eq. 20 and 24.
+  void surfaceCorrection(const BodyContext& body) {
+    corrected_ = true;
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    const auto w = influenceFunction(body.options.influence);
+    const auto full = detail::fullLatticeFamily(body.spacing, body.horizon, body.options.partialVolume);
+    using Vec6 = Eigen::Matrix<double, 6, 1>;
+    using Mat6 = Eigen::Matrix<double, 6, 6>;
+    // (n . D_b n) for the six basis modes, and the tensor row of n^T X n.
+    auto modes = [](const double* n, Vec6& proj) {
+      proj << n[0] * n[0] - 1.0 / 3.0, n[1] * n[1] - 1.0 / 3.0, n[2] * n[2] - 1.0 / 3.0, n[0] * n[1],
+          n[1] * n[2], n[2] * n[0];
+    };
+    auto tensorRow = [](const double* n, Vec6& row) {
+      row << n[0] * n[0], n[1] * n[1], n[2] * n[2], 2 * n[0] * n[1], 2 * n[1] * n[2], 2 * n[2] * n[0];
+    };
+    double mFull = 0.0;
+    Vec6 devFull = Vec6::Zero();
+    for (std::size_t k = 0; k < full.length.size(); ++k) {
+      const double r = full.length[k], wv = w(r, body.horizon) * full.volume[k];
+      const double n[3] = {full.xi[3 * k] / r, full.xi[3 * k + 1] / r, full.xi[3 * k + 2] / r};
+      Vec6 proj;
+      modes(n, proj);
+      mFull += wv * r * r;
+      devFull += wv * r * r * proj.cwiseProduct(proj);
+    }
+    const std::size_t count = body.end - body.begin;
+    for (std::size_t i = 0; i < count; ++i) {
+      Mat6 A = Mat6::Zero();
+      Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        const std::size_t j = b.neighbor[k];
+        const double r = b.length[k];
+        double n[3];
+        for (int a = 0; a < 3; ++a) n[a] = (p.reference[3 * j + a] - p.reference[3 * (body.begin + i) + a]) / r;
+        Vec6 row, proj, xx;
+        tensorRow(n, row);
+        modes(n, proj);
+        xx << n[0] * n[0], n[1] * n[1], n[2] * n[2], n[0] * n[1], n[1] * n[2], n[2] * n[0];
+        const double wv = weight_[k] * p.volume[j] * r * r;
+        A += wv * xx * row.transpose();
+        const Eigen::Vector3d axial = proj.head<3>().cwiseProduct(proj.head<3>());
+        B += wv * axial * Eigen::Vector3d(n[0] * n[0], n[1] * n[1], n[2] * n[2]).transpose();
+      }
+      Vec6 rhsM;
+      rhsM << 1, 1, 1, 0, 0, 0;
+      const auto luA = A.fullPivLu();
+      const auto luB = B.fullPivLu();
+      // Degenerate families (a line of particles) keep the plain factors.
+      const bool okM = luA.isInvertible(), okH = luB.isInvertible();
+      const Vec6 M = okM ? Vec6(luA.solve(rhsM)) : Vec6::Zero();
+      const Eigen::Vector3d H =
+          okH ? Eigen::Vector3d(luB.solve(Eigen::Vector3d(devFull.head<3>() * (m_[i] / mFull))))
+              : Eigen::Vector3d::Ones();
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        double n[3];
+        for (int a = 0; a < 3; ++a)
+          n[a] = (p.reference[3 * b.neighbor[k] + a] - p.reference[3 * (body.begin + i) + a]) / b.length[k];
+        Vec6 row;
+        tensorRow(n, row);
+        if (okM) dilatationFactor_[k] = m_[i] / 3.0 * row.dot(M);
+        if (okH) deviatoricFactor_[k] = n[0] * n[0] * H[0] + n[1] * n[1] * H[1] + n[2] * n[2] * H[2];
+      }
+    }
+  }
+
+  double K_ = 0.0, G_ = 0.0;
+  bool corrected_ = false;
+  std::vector<double> weight_, dilatationFactor_, deviatoricFactor_, m_, t_;
+  mutable std::vector<double> theta_, e_;  // scratch of the current configuration
+  std::vector<std::size_t> reverse_;
+  std::vector<double> coefA_, coefB_;
+};
+
+}  // namespace
+
+PD_REGISTER_MODEL("lps", Lps);
+
+}  // namespace cosim::pd

@@ -1,0 +1,350 @@
+// The PdSolver adapter: scene section -> PdSystem, advance requests ->
+// sub-steps with held or interpolated coupling forces, hybrid particles out.
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include <yaml-cpp/yaml.h>
+
+#include "cosim/pd/hybrid.hpp"
+#include "cosim/pd/pd_solver.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::pd {
+
+using cosim::proto::Error;
+using cosim::wire::SolverError;
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'D', 'C', 'K', 'P', 'T', '1', '\0'};
+
+template <class T>
+void put(std::ofstream& out, const std::vector<T>& v) {
+  const std::uint64_t n = v.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
+}
+
+template <class T>
+void putScalar(std::ofstream& out, T v) { out.write(reinterpret_cast<const char*>(&v), sizeof v); }
+
+template <class T>
+void get(std::ifstream& in, std::vector<T>& v, const std::string& path, const char* what) {
+  std::uint64_t n = 0;
+  in.read(reinterpret_cast<char*>(&n), sizeof n);
+  if (!in || n != v.size())
+    throw SolverError(Error::Code::BAD_INPUT, path + ": checkpoint " + what + " has " + std::to_string(n) +
+                                                  " entries, this setup has " + std::to_string(v.size()));
+  in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
+  if (!in) throw SolverError(Error::Code::BAD_INPUT, path + ": checkpoint truncated in " + what);
+}
+
+template <class T>
+T getScalar(std::ifstream& in, const std::string& path) {
+  T v{};
+  in.read(reinterpret_cast<char*>(&v), sizeof v);
+  if (!in) throw SolverError(Error::Code::BAD_INPUT, path + ": checkpoint truncated");
+  return v;
+}
+
+}  // namespace
+
+const std::vector<std::string>& PdSolver::fieldNames() {
+  static const std::vector<std::string> names{"position", "displacement", "velocity", "force", "damage",
+                                              "strain", "cauchy", "von_mises", "deformation_gradient"};
+  return names;
+}
+
+cosim::wire::SolverInfo PdSolver::info() const {
+  auto caps = cosim::wire::baseCapabilities();
+  caps.push_back("hybrid-particles");
+  caps.push_back("multirate-interpolation");
+  caps.push_back("staggered-update");
+  return {"pd", "0.1.0", caps};
+}
+
+void PdSolver::requireSetup(const char* what) const {
+  if (!ready_) throw SolverError(Error::Code::UNEXPECTED, std::string(what) + " before setup");
+}
+
+void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::CouplingData::Builder outputs) {
+  if (ready_) throw SolverError(Error::Code::UNEXPECTED, "setup called twice");
+  const std::string file = ctx.sceneFile.empty() ? "<scene>" : ctx.sceneFile;
+  try {
+    const YAML::Node scene = YAML::Load(ctx.sceneYaml);
+    const auto solvers = scene["solvers"];
+    if (!solvers || !solvers.IsSequence())
+      throw std::invalid_argument(file + ": no 'solvers' list in the scene");
+    YAML::Node params;
+    bool found = false;
+    for (const auto& s : solvers)
+      if (s["name"] && s["name"].as<std::string>() == ctx.instance) {
+        found = true;
+        params = s["params"];
+        if (!params)
+          throw std::invalid_argument(file + ":" + std::to_string(s.Mark().line + 1) + ": solver '" +
+                                      ctx.instance + "' has no 'params' section");
+      }
+    if (!found) throw std::invalid_argument(file + ": no solver named '" + ctx.instance + "'");
+    const std::string baseDir =
+        ctx.sceneFile.empty() ? "" : std::filesystem::path(ctx.sceneFile).parent_path().string();
+    config_ = parsePdParams(params, file, baseDir);
+    buildSystem(config_, system_, file);
+  } catch (const YAML::Exception& e) {
+    throw SolverError(Error::Code::BAD_INPUT, file + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  } catch (const std::invalid_argument& e) {
+    throw SolverError(Error::Code::BAD_INPUT, e.what());
+  }
+  if (config_.hybrid)
+    for (const auto& b : system_.bodies()) {
+      const auto s = surfaceParticles(system_.particles(), b.begin, b.end, b.spacing);
+      hybrid_.insert(hybrid_.end(), s.begin(), s.end());
+    }
+  for (const auto& b : system_.bodies()) hybridHorizon_.push_back(b.horizon);
+  if (config_.outputEvery > 0) {
+    std::filesystem::path p = config_.outputFile;
+    if (p.is_relative() && !ctx.runDir.empty()) p = std::filesystem::path(ctx.runDir) / p;
+    snapshots_ = std::make_unique<SnapshotWriter>(p);
+    snapshots_->write(system_);
+  }
+  ready_ = true;
+  writeHybrid(outputs);
+}
+
+void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into) const {
+  into.assign(3 * system_.particles().size(), 0.0);
+  if (!data.hasHybridForces()) return;
+  for (const auto hf : data.getHybridForces()) {
+    const auto ids = cosim::wire::view(hf.getIds());
+    const auto f = cosim::wire::view(hf.getForces());
+    if (f.size() != 3 * ids.size())
+      throw SolverError(Error::Code::BAD_INPUT, "hybridForces: " + std::to_string(ids.size()) + " ids but " +
+                                                    std::to_string(f.size()) + " force values (need 3 per id)");
+    for (std::size_t q = 0; q < ids.size(); ++q) {
+      if (ids[q] >= system_.particles().size())
+        throw SolverError(Error::Code::BAD_INPUT, "hybridForces: unknown particle id " + std::to_string(ids[q]));
+      for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(f[3 * q + a]))
+          throw SolverError(Error::Code::BAD_INPUT, "hybridForces: non-finite force on particle " +
+                                                        std::to_string(ids[q]));
+        into[3 * ids[q] + a] += f[3 * q + a];
+      }
+    }
+  }
+}
+
+void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::CouplingData::Builder outputs) {
+  requireSetup("advance");
+  if (req.steps == 0) throw SolverError(Error::Code::BAD_INPUT, "advance: steps must be at least 1");
+  if (!(req.dt > 0.0) || !std::isfinite(req.dt))
+    throw SolverError(Error::Code::BAD_INPUT, "advance: dt must be positive, got " + std::to_string(req.dt));
+  const double crit = system_.criticalTimeStep();
+  if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
+    throw SolverError(Error::Code::BAD_INPUT, "advance: dt = " + std::to_string(req.dt) +
+                                                  " s exceeds the PD critical step " + std::to_string(crit) +
+                                                  " s (Hartmann Eqs. 41-42); set 'force: true' to override");
+  std::vector<double> f0, f1;
+  readHybridForces(req.inputs, f0);
+  const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
+  if (interpolate) readHybridForces(*req.inputsEnd, f1);
+  auto& coupling = system_.couplingForce();
+  const std::uint32_t n = req.steps;
+  // Forces received are applied before the next update: the first half kick
+  // already sees them.
+  coupling = f0;
+  system_.updateExternalForces();
+  if (config_.quasiStatic) {
+    // Quasi-static loading: the end-of-request loads, relaxed to equilibrium.
+    if (interpolate) coupling = f1;
+    const auto used = system_.relax(config_.relaxTolerance, config_.relaxMaxIterations);
+    if (used >= config_.relaxMaxIterations)
+      throw SolverError(Error::Code::SOLVER_FAILURE,
+                        "quasi_static: dynamic relaxation did not reach tolerance " +
+                            std::to_string(config_.relaxTolerance) + " in " + std::to_string(used) + " iterations");
+    system_.setTime(system_.time() + n * req.dt, system_.stepCount() + n);
+  }
+  for (std::uint32_t k = 0; k < n && !config_.quasiStatic; ++k) {
+    if (config_.staggered) {
+      // The coupling kick of sub-step k uses the value at its start.
+      if (interpolate)
+        for (std::size_t q = 0; q < coupling.size(); ++q)
+          coupling[q] = f0[q] + (f1[q] - f0[q]) * static_cast<double>(k) / n;
+      system_.stepStaggered(req.dt);
+    } else {
+      // Velocity Verlet evaluates forces at the end of the sub-step.
+      if (interpolate)
+        for (std::size_t q = 0; q < coupling.size(); ++q)
+          coupling[q] = f0[q] + (f1[q] - f0[q]) * static_cast<double>(k + 1) / n;
+      system_.step(req.dt);
+    }
+  }
+  checkFinite();
+  ++advances_;
+  if (snapshots_ && advances_ % config_.outputEvery == 0) snapshots_->write(system_);
+  writeHybrid(outputs);
+}
+
+void PdSolver::checkFinite() const {
+  const auto& p = system_.particles();
+  for (std::size_t q = 0; q < p.displacement.size(); ++q)
+    if (!std::isfinite(p.displacement[q]) || !std::isfinite(p.velocity[q]))
+      throw SolverError(Error::Code::SOLVER_FAILURE,
+                        "non-finite displacement or velocity of particle " + std::to_string(q / 3) + " (body '" +
+                            system_.bodies()[p.body[q / 3]].spec.name + "') at step " +
+                            std::to_string(system_.stepCount()));
+}
+
+void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out) const {
+  if (!config_.hybrid) return;
+  const auto& p = system_.particles();
+  const auto n = static_cast<unsigned>(hybrid_.size());
+  auto list = out.initHybridParticles(1);
+  auto h = list[0];
+  auto ids = cosim::wire::view(h.initIds(n));
+  auto bodies = cosim::wire::view(h.initBodyIds(n));
+  auto ref = cosim::wire::view(h.initReferencePositions(3 * n));
+  auto pos = cosim::wire::view(h.initPositions(3 * n));
+  auto vel = cosim::wire::view(h.initVelocities(3 * n));
+  auto rad = cosim::wire::view(h.initRadii(n));
+  auto hz = cosim::wire::view(h.initHorizons(static_cast<unsigned>(hybridHorizon_.size())));
+  for (unsigned q = 0; q < n; ++q) {
+    const std::size_t i = hybrid_[q];
+    ids[q] = static_cast<std::uint32_t>(i);
+    bodies[q] = p.body[i];
+    rad[q] = quasiRadius(p.volume[i]);  // Hartmann Eq. 39
+    for (int a = 0; a < 3; ++a) {
+      ref[3 * q + a] = p.reference[3 * i + a];
+      pos[3 * q + a] = p.reference[3 * i + a] + p.displacement[3 * i + a];
+      vel[3 * q + a] = p.velocity[3 * i + a];
+    }
+  }
+  for (std::size_t b = 0; b < hybridHorizon_.size(); ++b) hz[b] = hybridHorizon_[b];
+}
+
+void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::CouplingData::Builder out) {
+  requireSetup("fields");
+  std::vector<std::string> want = names.empty() ? fieldNames() : names;
+  for (const auto& n : want) {
+    bool known = false;
+    for (const auto& f : fieldNames()) known = known || f == n;
+    if (!known && n != "hybrid")
+      throw SolverError(Error::Code::BAD_INPUT, "fields: unknown field '" + n + "'");
+  }
+  const auto& p = system_.particles();
+  CorrespondenceFields corr;
+  bool needCorr = false;
+  for (const auto& n : want)
+    needCorr = needCorr || n == "strain" || n == "cauchy" || n == "von_mises" || n == "deformation_gradient";
+  if (needCorr) corr = system_.correspondenceFields();
+  unsigned count = 0;
+  for (const auto& n : want) count += n == "hybrid" ? 0u : 1u;
+  auto arrays = out.initArrays(count);
+  unsigned k = 0;
+  for (const auto& n : want) {
+    if (n == "hybrid") { writeHybrid(out); continue; }
+    if (n == "position") {
+      std::vector<double> x(p.reference.size());
+      for (std::size_t q = 0; q < x.size(); ++q) x[q] = p.reference[q] + p.displacement[q];
+      cosim::wire::addArray(arrays, k++, n, 3, x);
+    } else if (n == "displacement") {
+      cosim::wire::addArray(arrays, k++, n, 3, p.displacement);
+    } else if (n == "velocity") {
+      cosim::wire::addArray(arrays, k++, n, 3, p.velocity);
+    } else if (n == "force") {
+      std::vector<double> f(p.internalForce.size());
+      for (std::size_t q = 0; q < f.size(); ++q) f[q] = p.internalForce[q] + p.externalForce[q];
+      cosim::wire::addArray(arrays, k++, n, 3, f);
+    } else if (n == "damage") {
+      cosim::wire::addArray(arrays, k++, n, 1, system_.damageField());
+    } else if (n == "strain") {
+      cosim::wire::addArray(arrays, k++, n, 6, corr.greenLagrange);
+    } else if (n == "cauchy") {
+      cosim::wire::addArray(arrays, k++, n, 6, corr.cauchy);
+    } else if (n == "von_mises") {
+      cosim::wire::addArray(arrays, k++, n, 1, corr.vonMises);
+    } else if (n == "deformation_gradient") {
+      cosim::wire::addArray(arrays, k++, n, 9, corr.deformationGradient);
+    }
+  }
+}
+
+std::uint64_t PdSolver::checkpoint(const std::string& path) {
+  requireSetup("checkpoint");
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw SolverError(Error::Code::SOLVER_FAILURE, path + ": cannot write checkpoint");
+  out.write(kMagic, sizeof kMagic);
+  auto& p = system_.particles();
+  putScalar(out, system_.time());
+  putScalar(out, system_.stepCount());
+  putScalar(out, system_.externalWork());
+  putScalar(out, advances_);
+  put(out, p.displacement);
+  put(out, p.velocity);
+  put(out, p.internalForce);
+  put(out, p.externalForce);
+  put(out, system_.previousExternalForce());
+  put(out, system_.couplingForce());
+  for (const auto& b : system_.bodies()) put(out, b.bonds.broken);
+  out.flush();
+  if (!out) throw SolverError(Error::Code::SOLVER_FAILURE, path + ": checkpoint write failed");
+  return static_cast<std::uint64_t>(out.tellp());
+}
+
+void PdSolver::restore(const std::string& path) {
+  requireSetup("restore");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SolverError(Error::Code::BAD_INPUT, path + ": cannot open checkpoint");
+  char magic[8] = {};
+  in.read(magic, sizeof magic);
+  if (!in || std::memcmp(magic, kMagic, sizeof kMagic) != 0)
+    throw SolverError(Error::Code::BAD_INPUT, path + ": not a pd_solver checkpoint");
+  // Read into copies first, so a bad file leaves the state untouched.
+  const auto t = getScalar<double>(in, path);
+  const auto s = getScalar<std::uint64_t>(in, path);
+  const auto w = getScalar<double>(in, path);
+  const auto adv = getScalar<std::uint64_t>(in, path);
+  auto& p = system_.particles();
+  auto u = p.displacement, v = p.velocity, fi = p.internalForce, fe = p.externalForce;
+  auto prev = system_.previousExternalForce(), cf = system_.couplingForce();
+  get(in, u, path, "displacement");
+  get(in, v, path, "velocity");
+  get(in, fi, path, "internal force");
+  get(in, fe, path, "external force");
+  get(in, prev, path, "previous external force");
+  get(in, cf, path, "coupling force");
+  std::vector<std::vector<std::uint8_t>> broken;
+  for (const auto& b : system_.bodies()) {
+    broken.push_back(b.bonds.broken);
+    get(in, broken.back(), path, "bond flags");
+  }
+  p.displacement = std::move(u);
+  p.velocity = std::move(v);
+  p.internalForce = std::move(fi);
+  p.externalForce = std::move(fe);
+  system_.previousExternalForce() = std::move(prev);
+  system_.couplingForce() = std::move(cf);
+  for (std::size_t b = 0; b < broken.size(); ++b) system_.bodies()[b].bonds.broken = std::move(broken[b]);
+  system_.setTime(t, s);
+  system_.externalWork() = w;
+  advances_ = adv;
+}
+
+double PdSolver::time() const { return system_.time(); }
+std::uint64_t PdSolver::step() const { return system_.stepCount(); }
+double PdSolver::criticalDt() const { return ready_ ? system_.criticalTimeStep() : 0.0; }
+
+cosim::wire::NamedValues PdSolver::energies() const {
+  if (!ready_) return {};
+  const auto e = system_.energies();
+  return {{"kinetic", e.kinetic}, {"strain", e.strain}, {"external_work", e.externalWork}};
+}
+
+std::size_t PdSolver::outputWordsHint() const {
+  // Hybrid particles (11 words each) or full fields (~40 words per particle).
+  return 1024 + 48 * system_.particles().size();
+}
+
+}  // namespace cosim::pd
