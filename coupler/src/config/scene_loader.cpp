@@ -131,11 +131,11 @@ void readCouplings(MapReader& root, Scene& scene) {
     if (!names.insert(name).second) m.error("name", "a coupling named '" + name + "' is already declared");
     const auto kind = m.requireString("kind");
     if (kind.empty()) continue;
-    if (!CouplingRegistry::instance().has(kind)) {
-      m.error("kind", "unknown coupling kind '" + kind + "' (known: " + CouplingRegistry::instance().namesJoined() + ")");
+    if (!CouplingRegistry::has(kind)) {
+      m.error("kind", "unknown coupling kind '" + kind + "' (known: " + CouplingRegistry::namesJoined() + ")");
       continue;
     }
-    auto coupling = CouplingRegistry::instance().make(kind, name, m, scene.solvers);
+    auto coupling = CouplingRegistry::make(kind, name, m, scene.solvers);
     m.finish();
     if (coupling) scene.couplings.push_back(std::move(coupling));
   }
@@ -151,11 +151,11 @@ void readSchedule(MapReader& root, Scene& scene) {
   if (!m.valid()) return;
   const auto kind = m.requireString("kind");
   if (kind.empty()) return;
-  if (!ScheduleRegistry::instance().has(kind)) {
-    m.error("kind", "unknown schedule '" + kind + "' (known: " + ScheduleRegistry::instance().namesJoined() + ")");
+  if (!ScheduleRegistry::has(kind)) {
+    m.error("kind", "unknown schedule '" + kind + "' (known: " + ScheduleRegistry::namesJoined() + ")");
     return;
   }
-  scene.schedule = ScheduleRegistry::instance().make(kind, m);
+  scene.schedule = ScheduleRegistry::make(kind, m);
   m.finish();
 }
 

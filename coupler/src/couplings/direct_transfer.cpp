@@ -53,10 +53,10 @@ class DirectTransfer final : public Coupling {
   std::vector<std::string> arrays_;
 };
 
-COSIM_REGISTER(CouplingRegistry, "direct-transfer",
-               [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
-                 return std::make_unique<DirectTransfer>(name, m, solvers);
-               });
+const bool registered = CouplingRegistry::add(
+    "direct-transfer", [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<DirectTransfer>(name, m, solvers);
+    });
 
 }  // namespace
 }  // namespace cosim::coupler

@@ -102,7 +102,8 @@ class Lockstep final : public Schedule {
   std::optional<long> fixedExchanges_;
 };
 
-COSIM_REGISTER(ScheduleRegistry, "lockstep", [](config::MapReader& m) { return std::make_unique<Lockstep>(m); });
+const bool registered =
+    ScheduleRegistry::add("lockstep", [](config::MapReader& m) { return std::make_unique<Lockstep>(m); });
 
 }  // namespace
 }  // namespace cosim::coupler
