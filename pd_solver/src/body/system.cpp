@@ -70,8 +70,8 @@ std::size_t PdSystem::addBody(const BodySpec& spec, const PointCloud& cloud) {
   };
   for (const auto& b : bodies_)
     if (b.spec.name == spec.name) fail("duplicate body name");
-  if (!ModelRegistry::instance().has(spec.model)) {
-    try { ModelRegistry::instance().create(spec.model); } catch (const std::exception& e) { fail(e.what()); }
+  if (!ModelRegistry::has(spec.model)) {
+    try { ModelRegistry::create(spec.model, "PD model"); } catch (const std::exception& e) { fail(e.what()); }
   }
   if (!(spec.material.youngsModulus > 0.0)) fail("E must be positive");
   if (!(spec.material.density > 0.0)) fail("rho must be positive");
@@ -105,7 +105,7 @@ std::size_t PdSystem::addBody(const BodySpec& spec, const PointCloud& cloud) {
   body.end = particles_.size();
   for (std::size_t i = body.begin; i < body.end; ++i)
     for (int a = 0; a < 3; ++a) particles_.velocity[3 * i + a] = spec.initialVelocity[a];
-  body.model = ModelRegistry::instance().create(spec.model);
+  body.model = ModelRegistry::create(spec.model, "PD model");
   bodies_.push_back(std::move(body));
   return index;
 }

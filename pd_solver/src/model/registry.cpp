@@ -1,41 +1,10 @@
-// Model registry, influence functions and the damage index shared by models.
+// Influence functions and the damage index shared by models.
 #include <cmath>
 #include <stdexcept>
 
 #include "cosim/pd/model.hpp"
 
 namespace cosim::pd {
-
-ModelRegistry& ModelRegistry::instance() {
-  static ModelRegistry registry;
-  return registry;
-}
-
-void ModelRegistry::add(const std::string& name, ModelFactory factory) {
-  for (auto& [n, f] : entries_)
-    if (n == name) throw std::logic_error("PD model '" + name + "' registered twice");
-  entries_.emplace_back(name, std::move(factory));
-}
-
-bool ModelRegistry::has(const std::string& name) const {
-  for (const auto& e : entries_)
-    if (e.first == name) return true;
-  return false;
-}
-
-std::vector<std::string> ModelRegistry::names() const {
-  std::vector<std::string> out;
-  for (const auto& e : entries_) out.push_back(e.first);
-  return out;
-}
-
-std::unique_ptr<PdModel> ModelRegistry::create(const std::string& name) const {
-  for (const auto& e : entries_)
-    if (e.first == name) return e.second();
-  std::string known;
-  for (const auto& e : entries_) known += (known.empty() ? "" : ", ") + e.first;
-  throw std::invalid_argument("unknown PD model '" + name + "' (known: " + known + ")");
-}
 
 std::function<double(double, double)> influenceFunction(const std::string& name) {
   if (name == "constant") return [](double, double) { return 1.0; };

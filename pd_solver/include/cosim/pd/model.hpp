@@ -1,4 +1,5 @@
 #pragma once
+#include "cosim/util/registry.hpp"
 // Peridynamic force models (PdModel) behind a registry keyed by the name a
 // scene uses ("pmb", "lps"). Adding a model is adding one file that registers
 // itself with PD_REGISTER_MODEL.
@@ -43,30 +44,12 @@ class PdModel {
   virtual double stiffnessBound(const BodyContext& body, std::size_t particle) const = 0;
 };
 
-using ModelFactory = std::function<std::unique_ptr<PdModel>()>;
+/// PD models register by the name a body's `model:` uses (the project's one registry).
+using ModelRegistry = cosim::Registry<PdModel>;
 
-class ModelRegistry {
- public:
-  static ModelRegistry& instance();
-  void add(const std::string& name, ModelFactory factory);
-  /// Throws std::invalid_argument listing the known names.
-  std::unique_ptr<PdModel> create(const std::string& name) const;
-  bool has(const std::string& name) const;
-  std::vector<std::string> names() const;
-
- private:
-  std::vector<std::pair<std::string, ModelFactory>> entries_;
-};
-
-struct ModelRegistration {
-  ModelRegistration(const std::string& name, ModelFactory factory) {
-    ModelRegistry::instance().add(name, std::move(factory));
-  }
-};
-
-#define PD_REGISTER_MODEL(NAME, TYPE) \
-  static const ::cosim::pd::ModelRegistration pdModelRegistration_##TYPE{ \
-      NAME, [] { return std::unique_ptr<::cosim::pd::PdModel>(new TYPE()); }}
+#define PD_REGISTER_MODEL(NAME, TYPE)                                     \
+  [[maybe_unused]] static const bool pdModelRegistration_##TYPE =         \
+      ::cosim::pd::ModelRegistry::add(NAME, [] { return std::unique_ptr<::cosim::pd::PdModel>(new TYPE()); })
 
 /// Influence function w<xi> of the LPS model, by name: "constant" (w = 1),
 /// "inverse" (w = delta / |xi|), "gaussian" (w = exp(-|xi|^2 / delta^2)).
