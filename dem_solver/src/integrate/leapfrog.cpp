@@ -14,11 +14,8 @@ class Leapfrog final : public Integrator {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (std::size_t i = 0; i < n; ++i) {
       if (p.driven[i]) continue;
-      const double w = p.weight[i];
-      p.v[i] += (dt * p.invMass[i] / w) * p.f[i];
-      p.omega[i] += (dt * p.invInertia[i] / w) * p.torque[i];
-      p.x[i] += dt * p.v[i];
-      p.q[i] = rotated(p.q[i], dt * p.omega[i]);
+      kick(p, i, dt);
+      drift(p, i, dt);
     }
   }
   void afterForces(Particles&, double) const override {}

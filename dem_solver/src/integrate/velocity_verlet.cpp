@@ -14,12 +14,8 @@ class VelocityVerlet final : public Integrator {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (std::size_t i = 0; i < n; ++i) {
       if (p.driven[i]) continue;
-      const double w = p.weight[i];
-      const double h = w == 1.0 ? 0.5 * dt : 0.5 * dt / w;  // skip the division outside coupling zones
-      p.v[i] += (h * p.invMass[i]) * p.f[i];
-      p.omega[i] += (h * p.invInertia[i]) * p.torque[i];
-      p.x[i] += dt * p.v[i];
-      p.q[i] = rotated(p.q[i], dt * p.omega[i]);
+      kick(p, i, 0.5 * dt);
+      drift(p, i, dt);
     }
   }
   void afterForces(Particles& p, double dt) const override {
@@ -27,10 +23,7 @@ class VelocityVerlet final : public Integrator {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (std::size_t i = 0; i < n; ++i) {
       if (p.driven[i]) continue;
-      const double w = p.weight[i];
-      const double h = w == 1.0 ? 0.5 * dt : 0.5 * dt / w;
-      p.v[i] += (h * p.invMass[i]) * p.f[i];
-      p.omega[i] += (h * p.invInertia[i]) * p.torque[i];
+      kick(p, i, 0.5 * dt);
     }
   }
 };

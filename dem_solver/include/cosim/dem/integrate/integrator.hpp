@@ -20,4 +20,18 @@ class Integrator {
 
 using IntegratorRegistry = Registry<Integrator>;
 
+/// Kick of particle i over dtKick: v += dtKick f / (w m), omega += dtKick tau / (w I).
+inline void kick(Particles& p, std::size_t i, double dtKick) {
+  const double w = p.weight[i];
+  const double h = w == 1.0 ? dtKick : dtKick / w;  // skip the division outside coupling zones
+  p.v[i] += (h * p.invMass[i]) * p.f[i];
+  p.omega[i] += (h * p.invInertia[i]) * p.torque[i];
+}
+
+/// Drift of particle i over dt: position moves with v, orientation turns by omega dt.
+inline void drift(Particles& p, std::size_t i, double dt) {
+  p.x[i] += dt * p.v[i];
+  p.q[i] = rotated(p.q[i], dt * p.omega[i]);
+}
+
 }  // namespace cosim::dem
