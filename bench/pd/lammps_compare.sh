@@ -17,13 +17,19 @@
 # LAMMPS' own step-2 configuration from scratch (read_dump + run 0) gives
 # pd_solver's forces to 12 digits. So the LPS probe check fails for a
 # reason on the LAMMPS side; the throughput comparison stands.
-#   bench/pd/lammps_compare.sh [BUILD_DIR] [SIZES]   (default build-pd, "20 40")
+#   bench/pd/lammps_compare.sh [BUILD_DIR] [SIZES]   (default build, "20 40")
+# Installs Debian's lammps package when `lmp` is missing.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-build=${1:-$root/build-pd}
+build=${1:-$root/build}
 sizes=${2:-"20 40"}
 bench=$build/bin/pd_bench
-command -v lmp > /dev/null || { echo "lmp not found: apt-get install lammps" >&2; exit 2; }
+if ! command -v lmp > /dev/null; then
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  echo "installing Debian's lammps package" >&2
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq lammps > /dev/null
+fi
 [ -x "$bench" ] || { echo "$bench not built (ninja -C $build pd_bench)" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
