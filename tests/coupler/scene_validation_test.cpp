@@ -313,6 +313,29 @@ TEST(GoodScene, BinaryPathIsResolvedNextToTheScene) {
 // ---------------------------------------------------------------------------
 // All mistakes in one file are reported together, each at its own line.
 
+// Every shipped scene validates (scenes of solvers this build leaves out are skipped).
+TEST(ShippedScenes, EveryConfigValidates) {
+  int checked = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(sourceDir() / "configs")) {
+    if (entry.path().extension() != ".yaml") continue;
+    const auto text = [&] {
+      std::ifstream in(entry.path());
+      std::stringstream s;
+      s << in.rdbuf();
+      return s.str();
+    }();
+    bool built = true;
+    for (const char* kind : {"dem", "fem", "pd"})
+      if (text.find(std::string("kind: ") + kind + "\n") != std::string::npos &&
+          !fs::exists(binDir() / (std::string(kind) + "_solver")))
+        built = false;
+    if (!built) continue;
+    EXPECT_NO_THROW(cosim::coupler::loadScene(entry.path().string())) << entry.path();
+    ++checked;
+  }
+  EXPECT_GE(checked, 1);
+}
+
 TEST(SceneErrors, SeveralMistakesAreAllReported) {
   TempDir dir;
   const auto path = dir.write("many.yaml",
