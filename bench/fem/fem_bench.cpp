@@ -13,6 +13,7 @@
 #include <cstring>
 #include <string>
 
+#include "cosim/fem/analysis/modal.hpp"
 #include "cosim/fem/linalg/sparse_system.hpp"
 #include "cosim/fem/model/model.hpp"
 #include "cosim/fem/time/integrator.hpp"
@@ -105,28 +106,7 @@ void benchFrequency() {
       auto model = makeModel(makeBoxMesh({0, 0, 0}, {b, L, b}, {m[0], m[1], m[2]}), f, rho);
       for (Index n : model->mesh().nodeSet("ymin"))
         for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
-      SparseSystem K, M;
-      K.build(model->mesh(), model->dofMap(), model->numFree());
-      M.build(model->mesh(), model->dofMap(), model->numFree());
-      std::vector<double> u(model->numDofs(), 0.0), fi;
-      ElementEnergy en;
-      model->assembleTangent(u, K, fi, en);
-      model->assembleMass(M);
-      auto solver = makeLinearSolver("direct");
-      solver->factorize(K.matrix());
-      Eigen::VectorXd x = Eigen::VectorXd::Ones(model->numFree());
-      double lambda = 0.0;
-      for (int it = 0; it < 200; ++it) {
-        const Eigen::VectorXd y = solver->solve(M.matrix() * x);
-        const double next = x.dot(M.matrix() * x) / x.dot(M.matrix() * y);  // Rayleigh-type estimate of w^2
-        x = y / std::sqrt(y.dot(M.matrix() * y));
-        if (std::abs(next - lambda) < 1e-12 * next) {
-          lambda = next;
-          break;
-        }
-        lambda = next;
-      }
-      const double freq = std::sqrt(lambda) / (2 * M_PI);
+      const double freq = lowestNaturalFrequency(*model);
       std::printf("%-20s %dx%dx%d  f1 = %.5f Hz  ratio to Euler-Bernoulli %.4f\n", f, m[0], m[1], m[2], freq, freq / fEB);
     }
   }
