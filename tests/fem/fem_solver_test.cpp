@@ -159,7 +159,7 @@ TEST(FemSolverAdapter, FieldsAndSnapshots) {
   ASSERT_EQ(out.getArrays().size(), 3u);
   EXPECT_EQ(std::string(out.getArrays()[0].getName().cStr()), "displacement");
   EXPECT_EQ(out.getArrays()[0].getValues().size(), s.model().numDofs());
-  std::ifstream x(dir / "beam.xdmf");
+  std::ifstream x(dir / "beam.xmf");
   std::stringstream text;
   text << x.rdbuf();
   EXPECT_NE(text.str().find("TopologyType=\"Hexahedron\""), std::string::npos);

@@ -1,14 +1,17 @@
 #include "cosim/fem/solver/snapshot_writer.hpp"
 
-#include <fstream>
 
 namespace cosim::fem {
 
 SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, const Model& model)
-    : file_(io::H5File::create(h5Path)), nodes_(model.numNodes()), elements_(model.mesh().numElements()) {
-  xdmf_ = h5Path;
-  xdmf_.replace_extension(".xdmf");
-  h5Name_ = h5Path.filename().string();
+    : file_(io::H5File::create(h5Path)),
+      nodes_(model.numNodes()),
+      elements_(model.mesh().numElements()),
+      xdmf_(h5Path, "fem", {"Hexahedron", "/mesh/topology", 8, model.mesh().numElements()}, "position",
+            {{"displacement", "displacement", 3},
+             {"velocity", "velocity", 3},
+             {"stress", "stress", 6, io::XdmfTimeSeries::Center::cell},
+             {"strain", "strain", 6, io::XdmfTimeSeries::Center::cell}}) {
   const Mesh& mesh = model.mesh();
   std::vector<std::uint32_t> topology;
   topology.reserve(8 * elements_);
@@ -49,39 +52,7 @@ void SnapshotWriter::write(const Model& model, const State& state) {
   file_.writeArray(g + "/strain", strain, 6);
   file_.setAttribute(g, "time", state.time);
   file_.flush();
-  steps_.emplace_back(state.step, state.time);
-  writeXdmf();
-}
-
-void SnapshotWriter::writeXdmf() const {
-  const std::string tmp = xdmf_.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    const std::string nn = std::to_string(nodes_), ne = std::to_string(elements_);
-    auto item = [&](const std::string& dims, const std::string& type, int precision, const std::string& path) {
-      return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + type + "\" Precision=\"" +
-             std::to_string(precision) + "\" Format=\"HDF\">" + h5Name_ + ":" + path + "</DataItem>";
-    };
-    out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-        << "  <Grid Name=\"fem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-    for (const auto& [step, t] : steps_) {
-      const std::string g = "/snapshots/" + std::to_string(step);
-      out << "   <Grid Name=\"step " << step << "\" GridType=\"Uniform\">\n"
-          << "    <Time Value=\"" << t << "\"/>\n"
-          << "    <Topology TopologyType=\"Hexahedron\" NumberOfElements=\"" << ne << "\">"
-          << item(ne + " 8", "UInt", 4, "/mesh/topology") << "</Topology>\n"
-          << "    <Geometry GeometryType=\"XYZ\">" << item(nn + " 3", "Float", 8, g + "/position") << "</Geometry>\n";
-      for (const char* v : {"displacement", "velocity"})
-        out << "    <Attribute Name=\"" << v << "\" AttributeType=\"Vector\" Center=\"Node\">"
-            << item(nn + " 3", "Float", 8, g + "/" + v) << "</Attribute>\n";
-      for (const char* v : {"stress", "strain"})
-        out << "    <Attribute Name=\"" << v << "\" AttributeType=\"Tensor6\" Center=\"Cell\">"
-            << item(ne + " 6", "Float", 8, g + "/" + v) << "</Attribute>\n";
-      out << "   </Grid>\n";
-    }
-    out << "  </Grid>\n </Domain>\n</Xdmf>\n";
-  }
-  std::filesystem::rename(tmp, xdmf_);
+  xdmf_.addStep(state.step, state.time, nodes_);
 }
 
 }  // namespace cosim::fem

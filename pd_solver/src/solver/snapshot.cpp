@@ -1,5 +1,4 @@
 // HDF5 point snapshots + XDMF sidecar (Polyvertex topology).
-#include <fstream>
 #include <sstream>
 
 #include "cosim/pd/snapshot.hpp"
@@ -7,7 +6,14 @@
 namespace cosim::pd {
 
 SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path)
-    : path_(h5Path), file_(cosim::io::H5File::create(h5Path)) {
+    : path_(h5Path),
+      file_(cosim::io::H5File::create(h5Path)),
+      xdmf_(h5Path, "pd", {}, "position",
+            {{"displacement", "displacement", 3},
+             {"velocity", "velocity", 3},
+             {"damage", "damage", 1},
+             {"strain", "strain", 6},
+             {"von_mises", "von_mises", 1}}) {
   file_.setAttribute("/", "solver", "pd_solver");
   file_.setAttribute("/", "units", "SI (m, kg, s, N, Pa)");
 }
@@ -32,45 +38,7 @@ void SnapshotWriter::write(const PdSystem& system) {
   file_.writeArray(g + "/body", p.body, 1);
   file_.setAttribute(g, "time", system.time());
   file_.flush();
-  entries_.push_back({system.stepCount(), system.time(), n});
-  writeXdmf();
-}
-
-void SnapshotWriter::writeXdmf() const {
-  auto xmf = path_;
-  xmf.replace_extension(".xmf");
-  std::ofstream out(xmf);
-  const std::string h5 = path_.filename().string();
-  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-      << "  <Grid Name=\"pd\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const auto& e : entries_) {
-    std::ostringstream gs;
-    gs << h5 << ":/snapshots/" << e.step;
-    const std::string g = gs.str();
-    auto item = [&](const std::string& name, int cols) {
-      std::ostringstream s;
-      s << "<DataItem Dimensions=\"" << e.n;
-      if (cols > 1) s << " " << cols;
-      s << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << g << "/" << name << "</DataItem>";
-      return s.str();
-    };
-    auto attr = [&](const std::string& name, const char* type, int cols) {
-      out << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">"
-          << item(name, cols) << "</Attribute>\n";
-    };
-    out << "   <Grid Name=\"step_" << e.step << "\" GridType=\"Uniform\">\n"
-        << "    <Time Value=\"" << e.time << "\"/>\n"
-        << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << e.n
-        << "\" NodesPerElement=\"1\"/>\n"
-        << "    <Geometry GeometryType=\"XYZ\">" << item("position", 3) << "</Geometry>\n";
-    attr("displacement", "Vector", 3);
-    attr("velocity", "Vector", 3);
-    attr("damage", "Scalar", 1);
-    attr("strain", "Tensor6", 6);
-    attr("von_mises", "Scalar", 1);
-    out << "   </Grid>\n";
-  }
-  out << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  xdmf_.addStep(system.stepCount(), system.time(), n);
 }
 
 }  // namespace cosim::pd

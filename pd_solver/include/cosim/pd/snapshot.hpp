@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "cosim/io/h5_file.hpp"
+#include "cosim/io/xdmf.hpp"
 #include "cosim/pd/system.hpp"
 
 namespace cosim::pd {
@@ -19,11 +20,9 @@ class SnapshotWriter {
   void write(const PdSystem& system);
 
  private:
-  void writeXdmf() const;
   std::filesystem::path path_;
   cosim::io::H5File file_;
-  struct Entry { std::uint64_t step; double time; std::size_t n; };
-  std::vector<Entry> entries_;
+  cosim::io::XdmfTimeSeries xdmf_;
 };
 
 }  // namespace cosim::pd

@@ -9,6 +9,7 @@
 
 #include "cosim/dem/dem_system.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/io/xdmf.hpp"
 
 namespace cosim::dem {
 
@@ -18,19 +19,13 @@ class SnapshotWriter {
   explicit SnapshotWriter(const std::string& h5Path);
   ~SnapshotWriter();
   void write(const DemSystem& system);
-  const std::string& xdmfPath() const { return xmfPath_; }
+  std::string xdmfPath() const { return xdmf_.path().string(); }
 
  private:
-  void writeXdmf() const;
-  std::string h5Path_, xmfPath_;
+  std::string h5Path_;
   io::H5File file_;
   std::unique_ptr<io::SeriesWriter> series_;
-  struct Entry {
-    std::uint64_t step;
-    double time;
-    std::size_t count;
-  };
-  std::vector<Entry> entries_;
+  io::XdmfTimeSeries xdmf_;
 };
 
 }  // namespace cosim::dem

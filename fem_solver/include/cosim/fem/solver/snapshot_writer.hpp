@@ -10,6 +10,7 @@
 #include "cosim/fem/model/model.hpp"
 #include "cosim/fem/time/integrator.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/io/xdmf.hpp"
 
 namespace cosim::fem {
 
@@ -17,15 +18,12 @@ class SnapshotWriter {
  public:
   SnapshotWriter(const std::filesystem::path& h5Path, const Model& model);
   void write(const Model& model, const State& state);
-  const std::filesystem::path& xdmfPath() const { return xdmf_; }
+  const std::filesystem::path& xdmfPath() const { return xdmf_.path(); }
 
  private:
-  void writeXdmf() const;
   io::H5File file_;
-  std::filesystem::path xdmf_;
-  std::string h5Name_;
   std::size_t nodes_ = 0, elements_ = 0;
-  std::vector<std::pair<std::uint64_t, double>> steps_;
+  io::XdmfTimeSeries xdmf_;
 };
 
 }  // namespace cosim::fem

@@ -1,0 +1,76 @@
+#include "cosim/io/xdmf.hpp"
+
+#include <fstream>
+#include <iomanip>
+#include <stdexcept>
+
+namespace cosim::io {
+namespace {
+
+const char* attributeType(int components) {
+  switch (components) {
+    case 1: return "Scalar";
+    case 3: return "Vector";
+    case 6: return "Tensor6";
+    case 9: return "Tensor";
+    default: throw std::invalid_argument("XDMF has no attribute type with " + std::to_string(components) + " components");
+  }
+}
+
+std::string dataItem(std::size_t rows, int cols, bool integer, const std::string& source) {
+  std::string dims = std::to_string(rows) + (cols > 1 ? " " + std::to_string(cols) : "");
+  return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "UInt" : "Float") + "\" Precision=\"" +
+         (integer ? "4" : "8") + "\" Format=\"HDF\">" + source + "</DataItem>";
+}
+
+}  // namespace
+
+XdmfTimeSeries::XdmfTimeSeries(std::filesystem::path h5Path, std::string gridName, Topology topology,
+                               std::string geometry, std::vector<Field> fields)
+    : xmfPath_(std::filesystem::path(h5Path).replace_extension(".xmf")),
+      h5Name_(h5Path.filename().string()),
+      gridName_(std::move(gridName)),
+      topology_(std::move(topology)),
+      geometry_(std::move(geometry)),
+      fields_(std::move(fields)) {
+  for (const auto& f : fields_) (void)attributeType(f.components);
+}
+
+void XdmfTimeSeries::addStep(std::uint64_t step, double time, std::size_t points) {
+  steps_.push_back({step, time, points});
+  write();
+}
+
+void XdmfTimeSeries::write() const {
+  const auto tmp = std::filesystem::path(xmfPath_.string() + ".tmp");
+  {
+    std::ofstream out(tmp);
+    out << std::setprecision(17);
+    out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+        << "  <Grid Name=\"" << gridName_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (const auto& s : steps_) {
+      const std::string group = h5Name_ + ":/snapshots/" + std::to_string(s.step) + "/";
+      const std::size_t cells = topology_.cells ? topology_.cells : s.points;
+      out << "   <Grid Name=\"step " << s.step << "\" GridType=\"Uniform\">\n"
+          << "    <Time Value=\"" << s.time << "\"/>\n"
+          << "    <Topology TopologyType=\"" << topology_.type << "\" NumberOfElements=\"" << cells << "\"";
+      if (topology_.dataset.empty())
+        out << " NodesPerElement=\"" << topology_.nodesPerCell << "\"/>\n";
+      else
+        out << ">" << dataItem(cells, topology_.nodesPerCell, true, h5Name_ + ":" + topology_.dataset) << "</Topology>\n";
+      out << "    <Geometry GeometryType=\"XYZ\">" << dataItem(s.points, 3, false, group + geometry_) << "</Geometry>\n";
+      for (const auto& f : fields_) {
+        const bool cell = f.center == Center::cell;
+        out << "    <Attribute Name=\"" << f.name << "\" AttributeType=\"" << attributeType(f.components)
+            << "\" Center=\"" << (cell ? "Cell" : "Node") << "\">"
+            << dataItem(cell ? cells : s.points, f.components, f.integer, group + f.dataset) << "</Attribute>\n";
+      }
+      out << "   </Grid>\n";
+    }
+    out << "  </Grid>\n </Domain>\n</Xdmf>\n";
+    if (!out) throw std::runtime_error(tmp.string() + ": cannot write the XDMF sidecar");
+  }
+  std::filesystem::rename(tmp, xmfPath_);
+}
+
+}  // namespace cosim::io
