@@ -24,7 +24,17 @@ fi
 
 build_dir=${COSIM_BUILD_DIR:-build}
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-      -DCOSIM_WERROR="${COSIM_WERROR:-OFF}" >/dev/null
-cmake --build "$build_dir" -j "$jobs" | grep -vE '^\[[0-9]+/[0-9]+\] ' || true
-test "${PIPESTATUS[0]}" -eq 0
+# COSIM_WERROR is passed only when set, so running the default scene after the
+# tests does not flip the warning flags and rebuild everything.
+werror=()
+[ -n "${COSIM_WERROR:-}" ] && werror=(-DCOSIM_WERROR="$COSIM_WERROR")
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${werror[@]}" >/dev/null
+# Progress lines are dropped; warnings, errors and a failed build are not.
+set +e
+cmake --build "$build_dir" -j "$jobs" 2>&1 | grep -vE '^\[[0-9]+/[0-9]+\] '
+status=${PIPESTATUS[0]}
+set -e
+if [ "$status" -ne 0 ]; then
+  echo "setup: the build failed (see above)" >&2
+  exit "$status"
+fi

@@ -2,6 +2,7 @@
 
 #include <fstream>
 #include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 namespace cosim::io {
@@ -18,9 +19,12 @@ const char* attributeType(int components) {
 }
 
 std::string dataItem(std::size_t rows, int cols, bool integer, const std::string& source) {
-  std::string dims = std::to_string(rows) + (cols > 1 ? " " + std::to_string(cols) : "");
-  return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "UInt" : "Float") + "\" Precision=\"" +
-         (integer ? "4" : "8") + "\" Format=\"HDF\">" + source + "</DataItem>";
+  std::ostringstream s;
+  s << "<DataItem Dimensions=\"" << rows;
+  if (cols > 1) s << ' ' << cols;
+  s << "\" NumberType=\"" << (integer ? "UInt" : "Float") << "\" Precision=\"" << (integer ? 4 : 8)
+    << "\" Format=\"HDF\">" << source << "</DataItem>";
+  return s.str();
 }
 
 }  // namespace
