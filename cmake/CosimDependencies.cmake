@@ -1,8 +1,17 @@
 # All dependencies come from Debian packages (scripts/setup.sh installs them).
 find_package(Threads REQUIRED)
 find_package(CapnProto REQUIRED)
-find_package(PkgConfig REQUIRED)
-pkg_check_modules(ZMQ REQUIRED IMPORTED_TARGET libzmq)
+# libzmq by header and library: its pkg-config file drags in private include
+# paths (mit-krb5) whose placement changes between the first and later CMake
+# runs, which made every second configure rebuild the whole tree.
+find_path(ZMQ_INCLUDE_DIR zmq.h REQUIRED)
+find_library(ZMQ_LIBRARY zmq REQUIRED)
+if(NOT TARGET cosim::zmq)
+  add_library(cosim_zmq INTERFACE)
+  target_include_directories(cosim_zmq SYSTEM INTERFACE ${ZMQ_INCLUDE_DIR})
+  target_link_libraries(cosim_zmq INTERFACE ${ZMQ_LIBRARY})
+  add_library(cosim::zmq ALIAS cosim_zmq)
+endif()
 find_path(CPPZMQ_INCLUDE_DIR zmq.hpp REQUIRED)
 find_package(HDF5 REQUIRED COMPONENTS C)
 find_package(yaml-cpp REQUIRED)
