@@ -74,6 +74,12 @@ void NeighborList::binParticles(const Particles& p, double cell) {
     cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
     ++cellStart_[cellOf_[i] + 1];
   }
+  sortIntoCells(n, ncell);
+}
+
+void NeighborList::sortIntoCells(std::size_t n, std::size_t ncell) {
+  // Counting sort: cellStart_ holds the per-cell counts shifted by one; the
+  // prefix sum turns them into offsets, then each particle goes to its slot.
   for (std::size_t c = 0; c < ncell; ++c) cellStart_[c + 1] += cellStart_[c];
   cellItems_.resize(n);
   std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
@@ -141,10 +147,7 @@ void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, dou
     cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
     ++cellStart_[cellOf_[i] + 1];
   }
-  for (std::size_t c = 0; c < ncell; ++c) cellStart_[c + 1] += cellStart_[c];
-  cellItems_.resize(n);
-  std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) cellItems_[fill[cellOf_[i]]++] = static_cast<std::uint32_t>(i);
+  sortIntoCells(n, ncell);
 }
 
 template <class Visit>

@@ -46,6 +46,8 @@ class NeighborList {
 
  private:
   void binParticles(const Particles& p, double cell);
+  /// Turns the per-cell counts in cellStart_ (and cellOf_) into cellItems_.
+  void sortIntoCells(std::size_t n, std::size_t ncell);
   template <class Visit>
   void forCandidates(const Particles& p, std::size_t i, Visit&& visit) const;
   template <class Visit>
