@@ -39,6 +39,16 @@ std::string joined(const std::vector<std::string>& items) {
   return out;
 }
 
+// A solver's latest reply is its setupDone (before the first exchange) or its last advanced.
+proto::CouplingData::Reader outputsOf(const wire::InMessage& reply) {
+  auto body = reply.envelope().getBody();
+  return body.isAdvanced() ? body.getAdvanced().getOutputs() : body.getSetupDone().getOutputs();
+}
+capnp::List<proto::NamedValue>::Reader energiesOf(const wire::InMessage& reply) {
+  auto body = reply.envelope().getBody();
+  return body.isAdvanced() ? body.getAdvanced().getEnergies() : body.getSetupDone().getEnergies();
+}
+
 std::vector<std::string> launchArgs(const SolverSpec& s, const std::string& endpoint) {
   std::vector<std::string> args{"--endpoint", endpoint, "--name", s.name};
   args.insert(args.end(), s.args.begin(), s.args.end());
@@ -192,8 +202,7 @@ class CouplerRun final : public ExchangeDriver {
     }
     for (const auto& s : scene_.solvers) {
       latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
-      auto body = latest_.at(s.name).envelope().getBody();
-      outputs_[s.name] = body.isAdvanced() ? body.getAdvanced().getOutputs() : body.getSetupDone().getOutputs();
+      outputs_[s.name] = outputsOf(latest_.at(s.name));
     }
     exchange_ = completed_ = point.exchange;
     time_ = point.time;
@@ -305,7 +314,7 @@ class CouplerRun final : public ExchangeDriver {
       auto done = replies[i].message.envelope().getBody().getSetupDone();
       critical[name] = done.getCriticalDt();
       latest_.insert_or_assign(name, std::move(replies[i].message));
-      outputs_[name] = latest_.at(name).envelope().getBody().getSetupDone().getOutputs();
+      outputs_[name] = outputsOf(latest_.at(name));
     }
     try {
       scene_.schedule->resolveTimeStep(critical, options_.force);
@@ -339,7 +348,7 @@ class CouplerRun final : public ExchangeDriver {
                                         std::to_string(e.getValue()) + " at exchange " + std::to_string(exchange_) +
                                         " (t = " + std::to_string(time_) + " s): the run is unstable");
     latest_.insert_or_assign(name, std::move(reply.message));
-    outputs_[name] = latest_.at(name).envelope().getBody().getAdvanced().getOutputs();
+    outputs_[name] = outputsOf(latest_.at(name));
   }
 
   void runCouplings() {
@@ -353,9 +362,7 @@ class CouplerRun final : public ExchangeDriver {
     series_->append("time", time_);
     series_->append("exchange", static_cast<double>(exchange_));
     for (const auto& [name, msg] : latest_) {
-      auto body = msg.envelope().getBody();
-      auto energies = body.isAdvanced() ? body.getAdvanced().getEnergies() : body.getSetupDone().getEnergies();
-      for (auto e : energies) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
+      for (auto e : energiesOf(msg)) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
       series_->append(name + "/compute_s", timings_[name].computeS);
       series_->append(name + "/communication_s", timings_[name].communicationS);
     }
@@ -393,9 +400,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& name : faulty_) processes_.kill(name);  // dead or hung: no grace
     processes_.terminateAll(1.0, 2.0);
     for (const auto& [name, msg] : latest_) {
-      auto body = msg.envelope().getBody();
-      auto energies = body.isAdvanced() ? body.getAdvanced().getEnergies() : body.getSetupDone().getEnergies();
-      for (auto e : energies) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
+      for (auto e : energiesOf(msg)) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
     }
     try {
       if (series_) {
