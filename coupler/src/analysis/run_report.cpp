@@ -30,8 +30,20 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
                           {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
                           {"critical_dt_s", p.criticalDt}});
   j["final_energies_J"] = finalEnergies;
+  j["coupling_overhead_share"] = couplingOverheadShare();
+  j["errors"] = nlohmann::json::array();
+  for (const auto& e : errors)
+    j["errors"].push_back({{"name", e.name}, {"reference", e.reference}, {"unit", e.unit}, {"value", e.value}});
+  j["figures"] = figures;
   std::ofstream out(path);
   out << std::setw(2) << j << "\n";
+}
+
+double RunReport::couplingOverheadShare() const {
+  if (!(loopS > 0.0)) return 0.0;
+  double overhead = mappingS;
+  for (const auto& p : peers) overhead += p.communicationS;
+  return overhead / loopS;
 }
 
 std::string RunReport::text() const {
@@ -51,6 +63,11 @@ std::string RunReport::text() const {
       << 100.0 * p.computeS / loop << " %), communication " << p.communicationS << " s ("
       << 100.0 * p.communicationS / loop << " %), " << p.messagesSent << " requests, "
       << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved\n";
+  s << "  overhead      communication + mapping = " << 100.0 * couplingOverheadShare() << " % of the exchange loop\n";
+  for (const auto& e : errors)
+    s << "  error         " << e.name << " = " << std::setprecision(6) << e.value << " " << e.unit << " (against "
+      << e.reference << ")\n" << std::setprecision(3);
+  for (const auto& [name, v] : figures) s << "  figure        " << name << " = " << std::setprecision(6) << v << "\n";
   for (const auto& [name, e] : finalEnergies) s << "  energy        " << name << " = " << std::setprecision(6) << e << " J\n";
   s << "  output        " << runDir << "\n";
   return s.str();

@@ -42,7 +42,7 @@ wire::SolverInfo DemSolver::info() const {
   i.version = "0.1.0";
   i.capabilities = wire::baseCapabilities();
   for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
-                        "driven-particles", "critical-dt", "energies", "hdf5-snapshots"})
+                        "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots"})
     i.capabilities.emplace_back(c);
   return i;
 }
@@ -64,6 +64,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     throw SolverError(Code::BAD_INPUT, e.what());
   }
   applyInputs(context.inputs);
+  selectZoneMembers();
   if (settings_.dt > 0.0) checkDt(settings_.dt, sceneFile_ + ": solver '" + instance_ + "': params.dt");
   if (settings_.snapshotEvery > 0) {
     std::filesystem::path file = settings_.snapshotFile.empty() ? instance_ + ".h5" : settings_.snapshotFile;
@@ -185,7 +186,51 @@ void DemSolver::checkFinite() const {
                                                     " (dt too large or contact law unstable)");
 }
 
+void DemSolver::selectZoneMembers() {
+  const Particles& p = system_.particles;
+  referencePositions_ = p.x;
+  zoneMembers_.assign(settings_.zones.size(), {});
+  for (std::size_t z = 0; z < settings_.zones.size(); ++z) {
+    const ExportZone& zone = settings_.zones[z];
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      bool inside = true;
+      for (int d = 0; zone.boxed && d < 3; ++d) inside = inside && p.x[i][d] >= zone.lo[d] && p.x[i][d] <= zone.hi[d];
+      if (inside) zoneMembers_[z].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+}
+
+void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
+  const Particles& p = system_.particles;
+  auto states = outputs.initParticles(static_cast<unsigned>(zoneMembers_.size()));
+  for (std::size_t z = 0; z < zoneMembers_.size(); ++z) {
+    const auto& members = zoneMembers_[z];
+    auto s = states[static_cast<unsigned>(z)];
+    s.setZone(settings_.zones[z].name);
+    const auto n = static_cast<unsigned>(members.size());
+    auto ids = wire::view(s.initIds(n));
+    auto x = wire::view(s.initPositions(3 * n));
+    auto v = wire::view(s.initVelocities(3 * n));
+    auto u = wire::view(s.initDisplacements(3 * n));
+    auto m = wire::view(s.initMasses(n));
+    auto r = wire::view(s.initRadii(n));
+    for (unsigned k = 0; k < n; ++k) {
+      const std::uint32_t i = members[k];
+      ids[k] = p.id[i];
+      m[k] = p.mass[i];
+      r[k] = p.radius[i];
+      for (int d = 0; d < 3; ++d) {
+        const auto c = 3 * k + static_cast<unsigned>(d);
+        x[c] = p.x[i][d];
+        v[c] = p.v[i][d];
+        u[c] = p.x[i][d] - referencePositions_[i][d];
+      }
+    }
+  }
+}
+
 void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
+  if (!zoneMembers_.empty()) fillZones(outputs);
   if (system_.meshes.empty()) return;
   auto lists = outputs.initContacts(static_cast<unsigned>(system_.meshes.size()));
   for (std::size_t g = 0; g < system_.meshes.size(); ++g) {

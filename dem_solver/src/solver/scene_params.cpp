@@ -198,6 +198,29 @@ void readWalls(const YamlSection& params, DemSystem& system) {
   }
 }
 
+void readZones(const YamlSection& params, RunSettings& settings) {
+  const YAML::Node list = params.node("zones");
+  if (!list) return;
+  if (!list.IsSequence()) params.fail("zones", "expected a list of {name, box}");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = params.path() + ".zones[" + std::to_string(i) + "]";
+    const YamlSection z(list[i], params.file(), path, {"name", "box"});
+    ExportZone zone;
+    zone.name = z.text("name");
+    for (const auto& other : settings.zones)
+      if (other.name == zone.name) z.fail("name", "zone '" + zone.name + "' is declared twice");
+    if (z.has("box")) {
+      const YamlSection box = z.child("box", {"min", "max"});
+      zone.boxed = true;
+      zone.lo = box.vec3("min");
+      zone.hi = box.vec3("max");
+      for (int d = 0; d < 3; ++d)
+        if (!(zone.lo[d] < zone.hi[d])) box.fail("max", "must exceed min in every component");
+    }
+    settings.zones.push_back(zone);
+  }
+}
+
 }  // namespace
 
 YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sceneFile, const std::string& instance) {
@@ -225,7 +248,8 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
 void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& system, RunSettings& settings) {
   const YamlSection params(node, sceneFile, "params",
                            {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance",
-                            "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds"});
+                            "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds",
+                            "zones"});
   const YamlSection contact = params.child("contact", {"normal", "tangential", "damping"});
   const std::string normal = contact.text("normal", "hertz"), tangential = contact.text("tangential", "mindlin"),
                     damping = contact.text("damping", "restitution");
@@ -286,6 +310,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   settings.snapshotEvery = snap.integer("every", 0);
   if (settings.snapshotEvery < 0) snap.fail("every", "must be >= 0");
   settings.snapshotFile = snap.text("file", "");
+  readZones(params, settings);
 }
 
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context) {

@@ -22,6 +22,15 @@ struct PeerTiming {
   double criticalDt = 0.0;
 };
 
+/// A scene's error against its reference (analytic formula or stored run):
+/// what `coupler sweep` plots against wall time.
+struct ErrorFigure {
+  std::string name;       // e.g. "time_averaged_trajectory_error"
+  std::string reference;  // what it is measured against, in words
+  std::string unit;
+  double value = 0.0;
+};
+
 struct RunReport {
   std::string scene;
   std::string sceneFile;
@@ -41,6 +50,11 @@ struct RunReport {
   double outputS = 0.0;    // HDF5 series and flushes
   std::vector<PeerTiming> peers;
   std::map<std::string, double> finalEnergies;  // "solver.name" -> J
+  std::vector<ErrorFigure> errors;              // the first one is the scene's error metric
+  std::map<std::string, double> figures;        // a scene's own numbers (drift, peak energy ...)
+
+  /// Communication of every peer plus the coupler's mapping, as a share of the exchange loop.
+  double couplingOverheadShare() const;
 
   void writeJson(const std::filesystem::path& path) const;
   std::string text() const;

@@ -34,8 +34,12 @@ class DemSolver final : public wire::Solver {
   void checkDt(double dt, const std::string& where);
   void applyInputs(proto::CouplingData::Reader inputs);
   void fillOutputs(proto::CouplingData::Builder outputs) const;
+  void fillZones(proto::CouplingData::Builder outputs) const;
+  void selectZoneMembers();
   void checkFinite() const;
   DemSystem system_;
+  std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
+  std::vector<Vec3> referencePositions_;                 // at setup: displacements are measured from here
   RunSettings settings_;
   std::string sceneFile_, instance_, runDir_;
   std::unique_ptr<SnapshotWriter> snapshots_;

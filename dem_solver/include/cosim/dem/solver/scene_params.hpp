@@ -22,13 +22,25 @@
 //     periodic: {cell: [[a], [b], [c]], velocity_gradient: [[row], [row], [row]]}
 //     mass_damping: 0.0                  # c of -c m v (dynamic relaxation)
 //     snapshots: {every: 1000, file: particles.h5}
+//     zones:                             # particle states sent with every setup/advance reply
+//       - {name: all}                    # every particle
+//       - {name: overlap, box: {min: [x, y, z], max: [x, y, z]}}   # those starting inside the box
 #include <yaml-cpp/yaml.h>
 
 #include <string>
+#include <vector>
 
 #include "cosim/dem/dem_system.hpp"
 
 namespace cosim::dem {
+
+/// A set of particles whose states (ParticleStates) go out with every reply,
+/// chosen by their initial positions: what couplings and analyses read.
+struct ExportZone {
+  std::string name;
+  bool boxed = false;
+  Vec3 lo, hi;
+};
 
 struct RunSettings {
   double dt = 0.0;
@@ -36,6 +48,7 @@ struct RunSettings {
   double overlapTolerance = 0.01;
   long snapshotEvery = 0;
   std::string snapshotFile;
+  std::vector<ExportZone> zones;
 };
 
 /// Finds the `solvers:` entry named instance in the scene text; throws SceneError.
