@@ -4,6 +4,15 @@
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::coupler {
+namespace {
+
+template <typename T, typename List>
+void copyInto(List list, std::span<const T> values) {
+  auto out = wire::view(list);
+  if (!values.empty()) std::memcpy(out.data(), values.data(), values.size() * sizeof(T));
+}
+
+}  // namespace
 
 void InputAssembler::stageArray(std::string name, std::uint32_t components, std::span<const double> values) {
   arrays_.push_back({std::move(name), components, values});
@@ -12,7 +21,18 @@ void InputAssembler::stageArray(std::string name, std::uint32_t components, std:
 std::size_t InputAssembler::words() const {
   std::size_t w = 64;
   for (const auto& a : arrays_) w += a.values.size() + 8 + a.name.size() / 8;
+  for (const auto& m : meshes_)
+    w += m.positions.size() + m.velocities.size() + m.triangles.size() / 2 + 16 + m.surface.size() / 8;
+  for (const auto& f : forces_) w += f.forces.size() + f.ids.size() / 2 + 12 + f.zone.size() / 8;
+  w += 16 * profiles_.size();
   return w;
+}
+
+void InputAssembler::clear() {
+  arrays_.clear();
+  meshes_.clear();
+  forces_.clear();
+  profiles_.clear();
 }
 
 void InputAssembler::build(proto::CouplingData::Builder data) {
@@ -21,7 +41,38 @@ void InputAssembler::build(proto::CouplingData::Builder data) {
     for (unsigned i = 0; i < arrays_.size(); ++i)
       wire::addArray(list, i, arrays_[i].name, arrays_[i].components, arrays_[i].values);
   }
-  arrays_.clear();
+  if (!meshes_.empty()) {
+    auto list = data.initMeshes(static_cast<unsigned>(meshes_.size()));
+    for (unsigned i = 0; i < meshes_.size(); ++i) {
+      const auto& m = meshes_[i];
+      auto out = list[i];
+      out.setSurface(m.surface);
+      copyInto(out.initPositions(static_cast<unsigned>(m.positions.size())), m.positions);
+      copyInto(out.initVelocities(static_cast<unsigned>(m.velocities.size())), m.velocities);
+      copyInto(out.initTriangles(static_cast<unsigned>(m.triangles.size())), m.triangles);
+    }
+  }
+  if (!forces_.empty()) {
+    auto list = data.initForces(static_cast<unsigned>(forces_.size()));
+    for (unsigned i = 0; i < forces_.size(); ++i) {
+      const auto& f = forces_[i];
+      auto out = list[i];
+      out.setZone(f.zone);
+      out.setTarget(f.target);
+      copyInto(out.initIds(static_cast<unsigned>(f.ids.size())), f.ids);
+      copyInto(out.initForces(static_cast<unsigned>(f.forces.size())), f.forces);
+    }
+  }
+  if (!profiles_.empty()) {
+    auto list = data.initWeightProfiles(static_cast<unsigned>(profiles_.size()));
+    for (unsigned i = 0; i < profiles_.size(); ++i) {
+      list[i].setKind(profiles_[i].kind);
+      list[i].setAxis(profiles_[i].axis);
+      list[i].setStart(profiles_[i].start);
+      list[i].setEnd(profiles_[i].end);
+    }
+  }
+  clear();
 }
 
 }  // namespace cosim::coupler

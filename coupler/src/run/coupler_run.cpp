@@ -293,13 +293,16 @@ class CouplerRun final : public ExchangeDriver {
 
   void setUpPeers() {
     std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto& c : scene_.couplings) c->stageSetup(inputs_);
     for (const auto& s : scene_.solvers) {
-      wire::OutMessage m(scene_.text.size() / 8 + 256);
+      auto& inputs = inputs_[s.name];
+      wire::OutMessage m(scene_.text.size() / 8 + 256 + inputs.words());
       auto setup = m.envelope().getBody().initSetup();
       setup.setSceneFile(scene_.file);
       setup.setSceneYaml(scene_.text);
       setup.setInstance(s.name);
       setup.setRunDir(fs::absolute(runDir_).string());
+      inputs.build(setup.initInputs());
       pending.emplace_back(s.name, session_->request(s.name, m));
     }
     std::vector<wire::Reply> replies;
@@ -353,6 +356,7 @@ class CouplerRun final : public ExchangeDriver {
 
   void runCouplings() {
     ScopedTimer t(report_.mappingS);
+    for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
     ExchangeContext ctx{exchange_, time_, outputs_, inputs_, &*series_};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
   }

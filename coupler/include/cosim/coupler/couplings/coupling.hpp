@@ -22,9 +22,10 @@ namespace cosim::coupler {
 
 struct SolverSpec;
 
-/// The inputs of one solver's next advance, as views into data that stays
-/// alive until the request is built (replies of the last exchange, or
-/// buffers the coupling owns).
+/// The inputs of one solver's next request, as views into data that stays
+/// alive until the request is built: replies of the last exchange, or
+/// buffers the coupling owns. The coupler clears every assembler before the
+/// couplings run, so each exchange stages its inputs afresh.
 class InputAssembler {
  public:
   struct StagedArray {
@@ -32,15 +33,39 @@ class InputAssembler {
     std::uint32_t components = 1;
     std::span<const double> values;
   };
+  struct StagedMesh {  // a TriangleMeshKinematics (surface.capnp)
+    std::string surface;
+    std::span<const double> positions, velocities;
+    std::span<const std::uint32_t> triangles;  // empty = unchanged since the last send
+  };
+  struct StagedForces {  // a CouplingForces (volume.capnp)
+    std::string zone;
+    proto::CouplingForces::Target target = proto::CouplingForces::Target::NODES;
+    std::span<const std::uint32_t> ids;
+    std::span<const double> forces;  // 3 per id
+  };
+  struct StagedWeightProfile {  // a WeightProfile (volume.capnp), by value
+    std::string kind;
+    std::uint8_t axis = 0;
+    double start = 0.0, end = 0.0;
+  };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
+  void stageMesh(StagedMesh mesh) { meshes_.push_back(std::move(mesh)); }
+  void stageForces(StagedForces forces) { forces_.push_back(std::move(forces)); }
+  void stageWeightProfile(StagedWeightProfile profile) { profiles_.push_back(std::move(profile)); }
   const std::vector<StagedArray>& arrays() const { return arrays_; }
+  const std::vector<StagedMesh>& meshes() const { return meshes_; }
+  const std::vector<StagedForces>& forces() const { return forces_; }
   /// Copies everything staged into a request's CouplingData and forgets it.
   void build(proto::CouplingData::Builder data);
   std::size_t words() const;
-  void clear() { arrays_.clear(); }
+  void clear();
 
  private:
   std::vector<StagedArray> arrays_;
+  std::vector<StagedMesh> meshes_;
+  std::vector<StagedForces> forces_;
+  std::vector<StagedWeightProfile> profiles_;
 };
 
 struct ExchangeContext {
@@ -63,6 +88,8 @@ class Coupling {
   virtual std::vector<std::string> requiredCapabilities(const std::string& solver) const = 0;
   /// One line for `coupler check`.
   virtual void describe(std::ostream& out) const = 0;
+  /// Stages what the participants need at setup (weight profiles ...), sent with the setup request.
+  virtual void stageSetup(std::map<std::string, InputAssembler>& /*inputs*/) const {}
   /// Maps outputs to inputs; records what it wants under /series/<name>.
   virtual void exchange(ExchangeContext& context) = 0;
 
