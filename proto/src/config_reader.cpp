@@ -187,6 +187,36 @@ std::optional<double> MapReader::optionalNumber(const std::string& key, Range ra
   return v;
 }
 
+std::optional<double> MapReader::optionalLength(const std::string& key, const std::map<std::string, double>& scales,
+                                                Range range) {
+  auto text = optionalString(key);
+  if (!text) return std::nullopt;
+  std::size_t split = text->size();
+  while (split > 0 && std::isalpha(static_cast<unsigned char>((*text)[split - 1]))) --split;
+  const std::string unit = text->substr(split);
+  std::optional<double> v = parseNumber(text->substr(0, split));
+  if (!unit.empty() && v) {
+    auto scale = scales.find(unit);
+    if (scale == scales.end()) {
+      std::string known;
+      for (const auto& [name, value] : scales) known += (known.empty() ? "" : ", ") + name;
+      error(key, "unknown length scale '" + unit + "' in '" + *text + "' (known: " + (known.empty() ? "none" : known) +
+                     ")");
+      return std::nullopt;
+    }
+    *v *= scale->second;
+  }
+  if (!v || !std::isfinite(*v)) {
+    error(key, "expected a length (a number, or a multiple of a scale such as 10d), got '" + *text + "'");
+    return std::nullopt;
+  }
+  if (!range.contains(*v)) {
+    error(key, "must be " + range.describe() + " (got " + *text + ")");
+    return std::nullopt;
+  }
+  return v;
+}
+
 double MapReader::requireNumber(const std::string& key, Range range) {
   if (!has(key)) {
     diag_.error(mark_, (path_.empty() ? std::string("scene") : path_) + ": missing required key '" + key + "'");

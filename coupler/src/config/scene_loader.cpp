@@ -141,6 +141,23 @@ void readCouplings(MapReader& root, Scene& scene) {
   }
 }
 
+void readAnalysis(MapReader& root, Scene& scene) {
+  if (!root.has("analysis")) {
+    root.node("analysis");
+    return;
+  }
+  MapReader m(root.node("analysis"), "analysis", root.diagnostics());
+  if (!m.valid()) return;
+  const auto kind = m.requireString("reference");
+  if (kind.empty()) return;
+  if (!ReferenceRegistry::has(kind)) {
+    m.error("reference", "unknown reference '" + kind + "' (known: " + ReferenceRegistry::namesJoined() + ")");
+    return;
+  }
+  scene.reference = ReferenceRegistry::make(kind, m, scene.solvers);
+  m.finish();
+}
+
 void readSchedule(MapReader& root, Scene& scene) {
   if (!root.has("schedule")) {
     root.diagnostics().error(root.mark(), "scene: missing required key 'schedule'");
@@ -218,6 +235,8 @@ std::vector<std::string> Scene::requiredCapabilities(const std::string& solverNa
     if (std::find(parts.begin(), parts.end(), solverName) != parts.end())
       for (const auto& cap : c->requiredCapabilities(solverName)) caps.insert(cap);
   }
+  if (reference)
+    for (const auto& cap : reference->requiredCapabilities(solverName)) caps.insert(cap);
   if (const auto* s = solver(solverName)) caps.insert(s->extraCapabilities.begin(), s->extraCapabilities.end());
   return {caps.begin(), caps.end()};
 }
@@ -257,6 +276,7 @@ Scene loadScene(const std::string& path) {
   readSolvers(root, sceneDir, scene);
   readSchedule(root, scene);
   readCouplings(root, scene);
+  readAnalysis(root, scene);
   readOutput(root, scene);
   root.finish();
   diag.throwIfAny();

@@ -7,6 +7,7 @@
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/schedule/schedule.hpp"
+#include "cosim/coupler/schedule/time_step.hpp"
 
 namespace cosim::coupler {
 namespace {
@@ -46,24 +47,18 @@ class Lockstep final : public Schedule {
   }
 
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
-    double limit = std::numeric_limits<double>::infinity();
-    std::string limiting;
-    for (const auto& [solver, dt] : criticalDt)
-      if (dt > 0.0 && dt < limit) {
-        limit = dt;
-        limiting = solver;
-      }
+    const CriticalStep limit = tightestStep(criticalDt, [](const std::string&) { return true; });
     if (autoDt_) {
-      if (std::isinf(limit))
+      if (!limit.limited())
         throw std::runtime_error("schedule.dt: 'auto' needs a solver that reports a critical time step; none does");
-      dt_ = safety_ * limit;
+      dt_ = safety_ * limit.dt;
       if (endTime_ && !withinExchangeLimit())
         throw std::runtime_error("schedule: dt: auto gives " + toString(dt_) + " s, so end_time needs " +
                                  toString(*endTime_ / (dt_ * stepsPerExchange_)) + " exchanges, more than the " +
                                  toString(kMaxExchanges) + " a run may have");
-    } else if (dt_ > limit && !force) {
+    } else if (dt_ > limit.dt && !force) {
       throw std::runtime_error("schedule.dt = " + toString(dt_) + " s exceeds the critical time step " +
-                               toString(limit) + " s of solver '" + limiting +
+                               toString(limit.dt) + " s of solver '" + limit.solver +
                                "'; lower dt, use dt: auto, or run with --force");
     }
   }
@@ -82,18 +77,14 @@ class Lockstep final : public Schedule {
     std::map<std::string, AdvancePlan> plans;
     for (const auto& name : driver.solverNames()) plans[name] = AdvancePlan{stepsPerExchange_, dt_};
     const std::uint64_t n = exchanges();
-    for (std::uint64_t k = driver.completedExchanges() + 1; k <= n; ++k)
+    for (std::uint64_t k = driver.completedExchanges() + 1; k <= n && !driver.stopRequested(); ++k)
       driver.exchange(plans, static_cast<double>(k) * dt_ * stepsPerExchange_);
   }
 
  private:
   static constexpr double kMaxExchanges = 1e12;
   bool withinExchangeLimit() const { return *endTime_ / (dt_ * stepsPerExchange_) <= kMaxExchanges; }
-  static std::string toString(double v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-  }
+  static std::string toString(double v) { return formatNumber(v); }
   bool autoDt_ = false;
   double dt_ = 0.0;
   double safety_ = 0.5;

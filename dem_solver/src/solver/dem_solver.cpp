@@ -53,6 +53,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   runDir_ = context.runDir;
   system_ = DemSystem{};
   settings_ = RunSettings{};
+  reported_.clear();
   try {
     const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
     configure(params, sceneFile_, system_, settings_);
@@ -167,12 +168,41 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + num(request.dt));
   if (request.dt != checkedDt_) checkDt(request.dt, "advance (exchange " + std::to_string(request.exchange) + ")");
   applyInputs(request.inputs);
+  contactSums_.assign(system_.meshes.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
     system_.advance(request.dt);
+    accumulateWallContacts();
     if (snapshots_ && system_.step % static_cast<std::uint64_t>(settings_.snapshotEvery) == 0) snapshots_->write(system_);
   }
+  averageWallContacts(request.steps);
   checkFinite();
   fillOutputs(outputs);
+}
+
+void DemSolver::accumulateWallContacts() {
+  for (std::size_t g = 0; g < system_.meshes.size(); ++g)
+    for (const TriangleContact& k : system_.meshes[g].contacts) {
+      TriangleContact& sum = contactSums_[g][{k.particle, k.triangle}];
+      sum.particle = k.particle;
+      sum.triangle = k.triangle;
+      sum.force += k.force;
+      // The contact point is averaged with the force magnitude as weight, so
+      // the reported force and point carry the interval's mean moment.
+      const double w = norm(k.force);
+      for (std::size_t v = 0; v < 3; ++v) sum.bary[v] += w * k.bary[v];
+    }
+}
+
+void DemSolver::averageWallContacts(std::uint32_t steps) {
+  reported_.assign(system_.meshes.size(), {});
+  for (std::size_t g = 0; g < contactSums_.size(); ++g)
+    for (auto& [key, sum] : contactSums_[g]) {
+      const double total = sum.bary[0] + sum.bary[1] + sum.bary[2];
+      if (!(total > 0.0)) continue;
+      for (double& b : sum.bary) b /= total;
+      sum.force = (1.0 / steps) * sum.force;
+      reported_[g].push_back(sum);
+    }
 }
 
 void DemSolver::checkFinite() const {
@@ -235,16 +265,18 @@ void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
   auto lists = outputs.initContacts(static_cast<unsigned>(system_.meshes.size()));
   for (std::size_t g = 0; g < system_.meshes.size(); ++g) {
     const TriangleWallGroup& m = system_.meshes[g];
+    // After an advance: the contacts averaged over its sub-steps; after setup: the current ones.
+    const auto& contacts = g < reported_.size() ? reported_[g] : m.contacts;
     auto l = lists[static_cast<unsigned>(g)];
     l.setSurface(m.name);
-    const auto n = static_cast<unsigned>(m.contacts.size());
+    const auto n = static_cast<unsigned>(contacts.size());
     auto tri = wire::view(l.initTriangleIds(n));
     auto part = wire::view(l.initParticleIds(n));
     auto bary = wire::view(l.initBarycentric(3 * n));
     auto pts = wire::view(l.initPoints(3 * n));
     auto frc = wire::view(l.initForces(3 * n));
     for (unsigned c = 0; c < n; ++c) {
-      const TriangleContact& k = m.contacts[c];
+      const TriangleContact& k = contacts[c];
       tri[c] = k.triangle;
       part[c] = system_.particles.id[k.particle];
       Vec3 point;

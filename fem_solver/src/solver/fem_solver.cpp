@@ -90,6 +90,8 @@ wire::SolverInfo FemSolver::info() const {
   i.kind = "fem";
   i.version = "0.1.0";
   i.capabilities = wire::baseCapabilities();
+  for (const char* c : {"surface-export", "nodal-forces", "volume-zones", "critical-dt", "energies"})
+    i.capabilities.emplace_back(c);
   return i;
 }
 

@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <limits>
+#include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -79,6 +80,10 @@ class MapReader {
   std::optional<double> optionalNumber(const std::string& key, Range range = {});
   double requireNumber(const std::string& key, Range range = {});
   double number(const std::string& key, double fallback, Range range = {});
+  /// A length in metres, written as a number or as a multiple of a named
+  /// scale the way the papers do (`10d`, `1.5dx` with scales {d: 0.2, dx: 0.4}).
+  std::optional<double> optionalLength(const std::string& key, const std::map<std::string, double>& scales,
+                                       Range range = {});
   long integer(const std::string& key, long fallback, long min, long max);
   std::optional<long> optionalInteger(const std::string& key, long min, long max);
   bool boolean(const std::string& key, bool fallback);

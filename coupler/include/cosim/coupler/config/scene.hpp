@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/coupler/analysis/reference.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
 #include "cosim/coupler/schedule/schedule.hpp"
 #include "cosim/wire/endpoint.hpp"
@@ -45,6 +46,7 @@ struct Scene {
   std::vector<SolverSpec> solvers;
   std::vector<std::unique_ptr<Coupling>> couplings;
   std::unique_ptr<Schedule> schedule;
+  std::unique_ptr<Reference> reference;  // `analysis:`; null when the scene names none
   OutputSpec output;
 
   const SolverSpec* solver(const std::string& name) const;

@@ -4,6 +4,7 @@
 // scenes use (`kind: direct-transfer` ...), so a new coupling is a new file.
 #include <map>
 #include <ostream>
+#include <set>
 #include <span>
 #include <string>
 #include <vector>
@@ -74,6 +75,10 @@ struct ExchangeContext {
   const std::map<std::string, proto::CouplingData::Reader>& outputs;  // by solver name
   std::map<std::string, InputAssembler>& inputs;                      // by solver name
   io::SeriesWriter* series = nullptr;                                  // null in `coupler check`
+  /// Solvers whose outputs are new since the couplings last ran (all of them at setup; a
+  /// staggered schedule advances some solvers per exchange).
+  std::set<std::string> advanced = {};
+  bool isNew(const std::string& solver) const { return advanced.count(solver) > 0; }
 };
 
 class Coupling {

@@ -28,6 +28,9 @@ class ExchangeDriver {
   virtual double time() const = 0;
   /// Exchanges already done (non-zero when a run resumes from a checkpoint).
   virtual std::uint64_t completedExchanges() const = 0;
+  /// True once the scene's analysis says the run has reached its end (e.g. the
+  /// particles left the beam): the schedule stops before its end time.
+  virtual bool stopRequested() const { return false; }
 };
 
 class Schedule {

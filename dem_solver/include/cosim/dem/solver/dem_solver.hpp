@@ -1,5 +1,6 @@
 #pragma once
 // The dem_solver process's side of the protocol: a wire::Solver around a DemSystem.
+#include <map>
 #include <memory>
 #include <string>
 
@@ -35,11 +36,17 @@ class DemSolver final : public wire::Solver {
   void applyInputs(proto::CouplingData::Reader inputs);
   void fillOutputs(proto::CouplingData::Builder outputs) const;
   void fillZones(proto::CouplingData::Builder outputs) const;
+  void accumulateWallContacts();
+  void averageWallContacts(std::uint32_t steps);
   void selectZoneMembers();
   void checkFinite() const;
   DemSystem system_;
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
   std::vector<Vec3> referencePositions_;                 // at setup: displacements are measured from here
+  // Wall contacts summed over the sub-steps of one advance, keyed by (particle, triangle)
+  // per wall group; reported as their time average (the impulse over the interval).
+  std::vector<std::map<std::pair<std::uint32_t, std::uint32_t>, TriangleContact>> contactSums_;
+  std::vector<std::vector<TriangleContact>> reported_;
   RunSettings settings_;
   std::string sceneFile_, instance_, runDir_;
   std::unique_ptr<SnapshotWriter> snapshots_;

@@ -1,0 +1,51 @@
+#pragma once
+// A scene's reference solution and error metric (DESIGN.md 6.4): it watches
+// the solvers' outputs and energies every exchange, may end the run when the
+// scene's physics is over (particles left the beam ...), and puts its error
+// and figures into the run report. One class per file, registered by the
+// name scenes use under `analysis: {reference: <name>, ...}`.
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "cosim/coupler/analysis/run_report.hpp"
+#include "cosim/util/registry.hpp"
+#include "data.capnp.h"
+
+namespace cosim::io {
+class SeriesWriter;
+}
+namespace cosim::config {
+class MapReader;
+}
+
+namespace cosim::coupler {
+
+struct SolverSpec;
+
+struct Observation {
+  std::uint64_t exchange = 0;  // 0 = the outputs of setup
+  double time = 0.0;
+  const std::map<std::string, proto::CouplingData::Reader>& outputs;        // by solver name
+  const std::map<std::string, std::map<std::string, double>>& energies;     // by solver, then energy name
+  io::SeriesWriter* series = nullptr;
+};
+
+class Reference {
+ public:
+  virtual ~Reference() = default;
+  virtual std::string kind() const = 0;
+  virtual void describe(std::ostream& out) const = 0;
+  /// Capabilities it needs from one solver (outputs it reads).
+  virtual std::vector<std::string> requiredCapabilities(const std::string& solver) const = 0;
+  virtual void observe(const Observation& o) = 0;
+  /// True when the run has nothing left to show (the schedule stops early).
+  virtual bool finished() const { return false; }
+  /// Adds the error metric (first) and the scene's figures to the report.
+  virtual void conclude(RunReport& report) const = 0;
+};
+
+using ReferenceRegistry = Registry<Reference, config::MapReader&, const std::vector<SolverSpec>&>;
+
+}  // namespace cosim::coupler

@@ -1,0 +1,32 @@
+#pragma once
+// What the schedules share about time steps: the tightest critical step among
+// some solvers, and readable numbers for the messages that refuse a step.
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string>
+
+namespace cosim::coupler {
+
+struct CriticalStep {
+  double dt = std::numeric_limits<double>::infinity();  // infinite when no solver has a limit
+  std::string solver;
+  bool limited() const { return dt < std::numeric_limits<double>::infinity(); }
+};
+
+/// The smallest positive critical step among the solvers `include` accepts (0 = no limit).
+template <typename Include>
+CriticalStep tightestStep(const std::map<std::string, double>& criticalDt, Include include) {
+  CriticalStep limit;
+  for (const auto& [solver, dt] : criticalDt)
+    if (include(solver) && dt > 0.0 && dt < limit.dt) limit = {dt, solver};
+  return limit;
+}
+
+inline std::string formatNumber(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace cosim::coupler

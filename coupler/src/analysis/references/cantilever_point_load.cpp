@@ -1,0 +1,164 @@
+// cantilever-point-load: scene C1's reference (Cheng 2022 Sec. 6.1). Particles
+// roll along a cantilever clamped at y = 0; quasi-statically their weight P
+// acts as a point load at their current y, and Euler-Bernoulli beam theory
+// gives the deflection under the load
+//   z_ref(y) = z_0 - P y^3 / (3 E I)                     (scenes/README C1)
+// with x_ref = x_0 (no lateral motion). The error at time t is
+//   err(t) = || x_sim(t) - x_ref(t) ||_2 over all particles (y_ref = y_sim),
+// averaged over time while every particle is on the beam. The run ends when
+// all particles have left it (past the tip or over a side edge).
+// Figures: lateral drift max |x - x_0| per particle, the coupled total energy
+// FEM (kinetic + strain + hourglass) + DEM (kinetic + elastic + potential
+// relative to t = 0) and its maximum while coupled, the fall-off time.
+#include <algorithm>
+#include <cmath>
+#include <ostream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/reference.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+class CantileverPointLoad final : public Reference {
+ public:
+  CantileverPointLoad(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+    dem_ = requireSolverName(m, "dem", solvers);
+    zone_ = m.string("zone", "all");
+    young_ = m.requireNumber("young", config::Range::positive());
+    inertia_ = m.requireNumber("second_moment", config::Range::positive());
+    gravity_ = m.requireNumber("gravity", config::Range::positive());
+    length_ = m.requireNumber("length", config::Range::positive());
+    halfWidth_ = m.requireNumber("half_width", config::Range::positive());
+    axisX_ = m.number("axis_x", 0.0);
+  }
+
+  std::string kind() const override { return "cantilever-point-load"; }
+  void describe(std::ostream& out) const override {
+    out << "particles of '" << dem_ << "' zone '" << zone_ << "' against z_0 - P y^3 / (3 E I), E = " << young_
+        << " Pa, I = " << inertia_ << " m^4, beam length " << length_ << " m";
+  }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == dem_) return {"particle-states"};
+    return {};
+  }
+
+  void observe(const Observation& o) override {
+    const auto states = zoneStates(o);
+    const auto x = wire::view(states.getPositions());
+    if (o.exchange == 0 || x0_.empty()) start(states, o);
+    const double energy = totalEnergy(o);
+    if (o.series) {
+      o.series->append("analysis/total_energy", energy);
+      o.series->append("analysis/positions", x);
+    }
+    if (coupled_ && !allOnBeam(x)) {
+      coupled_ = false;
+      fallOffTime_ = o.time;
+    }
+    if (!allLeft(x)) lastOnBeam_ = o.time;
+    else finished_ = true;
+    if (!coupled_ || o.exchange == 0) return;
+    const double err = error(x);
+    if (o.series) o.series->append("analysis/trajectory_error", err);
+    errorIntegral_ += 0.5 * (err + lastError_) * (o.time - lastTime_);
+    lastError_ = err;
+    lastTime_ = o.time;
+    maxEnergy_ = std::max(maxEnergy_, energy);
+    for (std::size_t p = 0; p < drift_.size(); ++p) drift_[p] = std::max(drift_[p], std::abs(x[3 * p] - x0_[3 * p]));
+  }
+
+  bool finished() const override { return finished_; }
+
+  void conclude(RunReport& report) const override {
+    const double span = lastTime_ - startTime_;
+    report.errors.push_back({"time_averaged_trajectory_error",
+                             "quasi-static point load z_0 - P y^3 / (3 E I), x = x_0 (Cheng 2022 Sec. 6.1)", "m",
+                             span > 0.0 ? errorIntegral_ / span : 0.0});
+    for (std::size_t p = 0; p < drift_.size(); ++p)
+      report.figures["lateral_drift_" + std::to_string(p) + "_m"] = drift_[p];
+    report.figures["max_total_energy_J"] = maxEnergy_;
+    report.figures["coupled_until_s"] = coupled_ ? lastTime_ : fallOffTime_;
+    report.figures["all_left_beam"] = finished_ ? 1.0 : 0.0;
+  }
+
+ private:
+  proto::ParticleStates::Reader zoneStates(const Observation& o) const {
+    auto out = o.outputs.find(dem_);
+    if (out != o.outputs.end())
+      for (auto s : out->second.getParticles())
+        if (s.getZone() == zone_) return s;
+    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
+                             "' (add params.zones: [{name: " + zone_ + "}] to it)");
+  }
+
+  void start(proto::ParticleStates::Reader states, const Observation& o) {
+    const auto x = wire::view(states.getPositions());
+    x0_.assign(x.begin(), x.end());
+    double mass = 0.0;
+    for (double m : wire::view(states.getMasses())) mass += m;
+    load_ = mass * gravity_;
+    drift_.assign(x.size() / 3, 0.0);
+    startTime_ = lastTime_ = o.time;
+    lastError_ = 0.0;
+    initialPotential_ = energyOf(o, dem_, "potential");
+  }
+
+  double error(std::span<const double> x) const {
+    double sum = 0.0;
+    for (std::size_t p = 0; 3 * p < x.size(); ++p) {
+      const double y = x[3 * p + 1];
+      const double zRef = x0_[3 * p + 2] - load_ * y * y * y / (3.0 * young_ * inertia_);
+      const double dx = x[3 * p] - x0_[3 * p], dz = x[3 * p + 2] - zRef;
+      sum += dx * dx + dz * dz;
+    }
+    return std::sqrt(sum);
+  }
+
+  bool onBeam(std::span<const double> x, std::size_t p) const {
+    return x[3 * p + 1] <= length_ && std::abs(x[3 * p] - axisX_) <= halfWidth_;
+  }
+  bool allOnBeam(std::span<const double> x) const {
+    for (std::size_t p = 0; 3 * p < x.size(); ++p)
+      if (!onBeam(x, p)) return false;
+    return true;
+  }
+  bool allLeft(std::span<const double> x) const {
+    for (std::size_t p = 0; 3 * p < x.size(); ++p)
+      if (onBeam(x, p)) return false;
+    return true;
+  }
+
+  static double energyOf(const Observation& o, const std::string& solver, const std::string& name) {
+    auto s = o.energies.find(solver);
+    if (s == o.energies.end()) return 0.0;
+    auto e = s->second.find(name);
+    return e == s->second.end() ? 0.0 : e->second;
+  }
+
+  double totalEnergy(const Observation& o) const {
+    double total = -initialPotential_;
+    for (const auto& [solver, values] : o.energies)
+      for (const char* name : {"kinetic", "strain", "hourglass", "elastic", "potential"}) total += energyOf(o, solver, name);
+    return total;
+  }
+
+  std::string dem_, zone_;
+  double young_ = 0.0, inertia_ = 0.0, gravity_ = 0.0, length_ = 0.0, halfWidth_ = 0.0, axisX_ = 0.0;
+  std::vector<double> x0_, drift_;
+  double load_ = 0.0, initialPotential_ = 0.0;
+  bool coupled_ = true, finished_ = false;
+  double startTime_ = 0.0, lastTime_ = 0.0, lastError_ = 0.0, errorIntegral_ = 0.0, maxEnergy_ = 0.0;
+  double fallOffTime_ = 0.0, lastOnBeam_ = 0.0;
+};
+
+const bool registered = ReferenceRegistry::add(
+    "cantilever-point-load", [](config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<CantileverPointLoad>(m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

@@ -1,0 +1,181 @@
+// surface: FEM-DEM surface coupling (Cheng 2022 Sec. 5.1, 5.3.1). FEM exports
+// its coupling face set as moving triangles (four per quad face around an
+// interpolated centre vertex) with vertex-to-node weights and surface
+// quadrature points; DEM treats the triangles as a wall group with
+// Modifications 1 and 2 (Alg. 1) and returns its contacts; this coupling maps
+// the contact forces to nodal forces (Eq. 16 for c = 0, Eqs. 14-15 for c > 0)
+// and hands them to FEM.
+//
+// Wall kinematics over a DEM interval of several steps:
+//   extrapolated: DEM gets the surface at the last FEM state and moves it with
+//                 the exported velocities (both solvers may advance at once);
+//   interpolated: DEM gets the surface at the previous FEM state and the secant
+//                 velocity to the new one, so it sweeps exactly from one FEM
+//                 state to the next; needs a schedule that advances FEM first.
+#include <cmath>
+#include <ostream>
+#include <sstream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/mapping/surface_force_map.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+std::map<std::string, double> readScales(config::MapReader& m) {
+  std::map<std::string, double> scales;
+  if (!m.has("length_scales")) return scales;
+  const YAML::Node node = m.node("length_scales");
+  if (!node.IsMap()) {
+    m.error("length_scales", "expected a map of scale names to lengths in metres, e.g. {d: 0.2}");
+    return scales;
+  }
+  config::MapReader s(node, m.keyPath("length_scales"), m.diagnostics());
+  for (const auto& entry : node) {
+    const auto name = entry.first.as<std::string>();
+    if (auto v = s.optionalNumber(name, config::Range::positive())) scales[name] = *v;
+  }
+  s.finish();
+  return scales;
+}
+
+class SurfaceCoupling final : public Coupling {
+ public:
+  SurfaceCoupling(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers)
+      : Coupling(name) {
+    fem_ = requireSolverName(m, "fem", solvers);
+    dem_ = requireSolverName(m, "dem", solvers);
+    surface_ = m.requireString("surface");
+    const std::string kernel = m.string("kernel", "dirac");
+    if (!CgKernelRegistry::has(kernel))
+      m.error("kernel", "unknown CG kernel '" + kernel + "' (known: " + CgKernelRegistry::namesJoined() + ")");
+    else
+      kernel_ = CgKernelRegistry::make(kernel);
+    const auto scales = readScales(m);
+    width_ = m.optionalLength("width", scales, config::Range::nonNegative()).value_or(0.0);
+    if (kernel_ && !kernel_->isDirac() && !(width_ > 0.0))
+      m.error(m.has("width") ? "width" : "kernel", "kernel '" + kernel + "' needs a CG width > 0 (width: 10d, 2.0 ...)");
+    if (kernel_ && kernel_->isDirac() && width_ > 0.0)
+      m.error("width", "the dirac kernel has no width (c = 0); use kernel: lucy or gaussian for c > 0");
+    const std::string kinematics = m.string("wall_kinematics", "extrapolated");
+    if (kinematics != "extrapolated" && kinematics != "interpolated")
+      m.error("wall_kinematics", "must be extrapolated or interpolated, got '" + kinematics + "'");
+    interpolated_ = kinematics == "interpolated";
+    if (kernel_) map_.emplace(*kernel_, width_);
+  }
+
+  std::string kind() const override { return "surface"; }
+  std::vector<std::string> participants() const override { return {fem_, dem_}; }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == dem_) return {"triangle-walls", "contact-list"};
+    return {"surface-export", "nodal-forces"};
+  }
+  bool needsFemFirst() const { return interpolated_; }
+
+  void describe(std::ostream& out) const override {
+    out << fem_ << " surface '" << surface_ << "' <-> " << dem_ << " triangle wall; forces by "
+        << (kernel_ && !kernel_->isDirac() ? kernel_->name() + " kernel, c = " + std::to_string(width_) + " m (Eqs. 14-15)"
+                                           : std::string("point form (Eq. 16)"))
+        << ", wall kinematics " << (interpolated_ ? "interpolated" : "extrapolated");
+  }
+
+  void exchange(ExchangeContext& ctx) override {
+    auto fem = ctx.outputs.find(fem_);
+    auto dem = ctx.outputs.find(dem_);
+    if (fem == ctx.outputs.end() || dem == ctx.outputs.end()) return;
+    const auto mesh = findMesh(fem->second, ctx);
+    stageWall(mesh, ctx);
+    mapForces(dem->second, mesh, fem->second, ctx);
+  }
+
+ private:
+  proto::TriangleMeshKinematics::Reader findMesh(proto::CouplingData::Reader fem, const ExchangeContext& ctx) const {
+    for (auto m : fem.getMeshes())
+      if (m.getSurface() == surface_) return m;
+    throw std::runtime_error("coupling '" + name() + "': solver '" + fem_ + "' exported no surface '" + surface_ +
+                             "' at exchange " + std::to_string(ctx.exchange) +
+                             " (list it under its params coupling.surfaces)");
+  }
+
+  void stageWall(proto::TriangleMeshKinematics::Reader mesh, ExchangeContext& ctx) {
+    const auto x = wire::view(mesh.getPositions());
+    InputAssembler::StagedMesh staged{surface_, x, wire::view(mesh.getVelocities()), wire::view(mesh.getTriangles())};
+    if (interpolated_) {
+      if (ctx.isNew(fem_) || start_.empty()) advanceSecant(x, ctx.time);
+      staged.positions = start_;
+      staged.velocities = secant_;
+    }
+    ctx.inputs[dem_].stageMesh(staged);
+  }
+
+  /// The surface moves from the previous FEM state to the new one at constant velocity.
+  void advanceSecant(std::span<const double> x, double time) {
+    const double interval = time - lastTime_;
+    if (last_.size() != x.size() || !(interval > 0.0)) {
+      start_.assign(x.begin(), x.end());
+      secant_.assign(x.size(), 0.0);
+    } else {
+      start_ = last_;
+      for (std::size_t k = 0; k < x.size(); ++k) secant_[k] = (x[k] - last_[k]) / interval;
+    }
+    last_.assign(x.begin(), x.end());
+    lastTime_ = time;
+  }
+
+  void mapForces(proto::CouplingData::Reader dem, proto::TriangleMeshKinematics::Reader mesh,
+                 proto::CouplingData::Reader fem, ExchangeContext& ctx) {
+    proto::ContactList::Reader contacts;
+    bool found = false;
+    for (auto c : dem.getContacts())
+      if (c.getSurface() == surface_) contacts = c, found = true;
+    if (!found) return;  // DEM has not seen the wall yet (setup outputs)
+    const ContactsView cv{wire::view(contacts.getTriangleIds()), wire::view(contacts.getBarycentric()),
+                          wire::view(contacts.getPoints()), wire::view(contacts.getForces())};
+    const SurfaceMeshView mv{wire::view(mesh.getPositions()), wire::view(mesh.getTriangles()),
+                             wire::view(mesh.getRowStart()), wire::view(mesh.getNodeIds()),
+                             wire::view(mesh.getNodeWeights())};
+    std::optional<SurfaceQuadratureView> qv;
+    for (auto q : fem.getQuadratures())
+      if (q.getSurface() == surface_)
+        qv = SurfaceQuadratureView{wire::view(q.getPositions()), wire::view(q.getWeights()), q.getNodesPerPoint(),
+                                   wire::view(q.getNodeIds()), wire::view(q.getShapeValues())};
+    try {
+      map_->map(cv, mv, qv ? &*qv : nullptr, nodal_);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) + ": " + e.what());
+    }
+    ctx.inputs[fem_].stageForces({surface_, proto::CouplingForces::Target::NODES, nodal_.ids, nodal_.forces});
+    record(cv, ctx);
+  }
+
+  void record(const ContactsView& c, ExchangeContext& ctx) const {
+    if (!ctx.series) return;
+    double total[3] = {0, 0, 0}, mapped[3] = {0, 0, 0};
+    for (std::size_t k = 0; k < c.forces.size(); ++k) total[k % 3] += c.forces[k];
+    for (std::size_t k = 0; k < nodal_.forces.size(); ++k) mapped[k % 3] += nodal_.forces[k];
+    ctx.series->append(name() + "/contact_force", std::span<const double>(total, 3));
+    ctx.series->append(name() + "/nodal_force", std::span<const double>(mapped, 3));
+    ctx.series->append(name() + "/contacts", static_cast<double>(c.triangleIds.size()));
+  }
+
+  std::string fem_, dem_, surface_;
+  std::unique_ptr<CgKernel> kernel_;
+  double width_ = 0.0;
+  bool interpolated_ = false;
+  std::optional<SurfaceForceMap> map_;
+  NodalForces nodal_;
+  std::vector<double> last_, start_, secant_;  // FEM surface last exported; where DEM starts; its velocity
+  double lastTime_ = 0.0;
+};
+
+const bool registered = CouplingRegistry::add(
+    "surface", [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<SurfaceCoupling>(name, m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

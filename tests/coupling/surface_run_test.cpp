@@ -1,0 +1,93 @@
+// Scene C1 cut short (tests/coupling/c1_short.yaml) through the real coupler,
+// fem_solver and dem_solver: the particles rest on the beam's coupling
+// surface, every mapped nodal force balances the contact forces, and the run
+// report carries the scene's error metric against the beam-theory reference.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
+
+#include "cosim/io/h5_file.hpp"
+#include "subprocess.hpp"
+
+namespace cosim::testing {
+namespace {
+
+struct C1Run {
+  std::filesystem::path dir = freshDirectory("c1");
+  Finished run(const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> argv{binary("coupler"), "run", sourcePath("tests/coupling/c1_short.yaml"), "--out",
+                                  (dir / "run").string(), "--no-progress"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return cosim::testing::run(argv, 240.0);
+  }
+  nlohmann::json report() const {
+    std::ifstream in(dir / "run" / "run_report.json");
+    return nlohmann::json::parse(in);
+  }
+};
+
+TEST(SurfaceCouplingRun, ParticlesRestOnTheBeamAndTheMapBalancesTheContactForces) {
+  C1Run c1;
+  const auto done = c1.run();
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  const auto report = c1.report();
+  ASSERT_FALSE(report["errors"].empty());
+  EXPECT_EQ(report["errors"][0]["name"], "time_averaged_trajectory_error");
+  // 30 coarse steps (19 ms): the particles barely move from the reference path.
+  EXPECT_LT(report["errors"][0]["value"].get<double>(), 1e-4);
+  EXPECT_GT(report["figures"]["max_total_energy_J"].get<double>(), 0.8);  // 2 x 0.5 x 83.78 x 0.1^2 = 0.838 J
+  EXPECT_LT(report["figures"]["max_total_energy_J"].get<double>(), 0.9);
+
+  auto h5 = io::H5File::openReadOnly(c1.dir / "run" / "coupler.h5");
+  const auto contact = h5.readArray("/series/top/contact_force");
+  const auto nodal = h5.readArray("/series/top/nodal_force");
+  const auto count = h5.readArray("/series/top/contacts");
+  ASSERT_EQ(contact.size(), nodal.size());
+  ASSERT_GT(count.size(), 10u);
+  for (std::size_t k = 0; k < contact.size(); ++k)
+    EXPECT_NEAR(nodal[k], contact[k], 1e-9 * (1.0 + std::abs(contact[k]))) << "row " << k / 3;
+  // Both particles' weight (2 x 83.78 x 9.81 = 1643.7 N) rests on the surface at setup.
+  EXPECT_NEAR(contact[2], -1643.7, 0.05 * 1643.7);
+  EXPECT_GE(count.front(), 2.0);
+}
+
+TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {
+  C1Run c1;
+  const auto scene = c1.dir / "dirac.yaml";
+  {
+    std::ifstream in(sourcePath("tests/coupling/c1_short.yaml"));
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string s = text.str();
+    s.replace(s.find("kernel: lucy"), 12, "kernel: dirac");
+    s.replace(s.find("width: 10d"), 10, "width: 0");
+    s.replace(s.find("order: coarse-first"), 19, "order: parallel");
+    s.replace(s.find("wall_kinematics: interpolated"), 29, "wall_kinematics: extrapolated");
+    std::ofstream(scene) << s;
+  }
+  const auto done = run({binary("coupler"), "run", scene.string(), "--out", (c1.dir / "run").string(), "--no-progress"}, 240.0);
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  EXPECT_LT(c1.report()["errors"][0]["value"].get<double>(), 1e-4);
+}
+
+TEST(SurfaceCouplingRun, CheckRefusesAKernelWithoutWidth) {
+  C1Run c1;
+  const auto scene = c1.dir / "bad.yaml";
+  {
+    std::ifstream in(sourcePath("tests/coupling/c1_short.yaml"));
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string s = text.str();
+    s.replace(s.find("    width: 10d\n"), 15, "");
+    std::ofstream(scene) << s;
+  }
+  const auto done = run({binary("coupler"), "check", scene.string()}, 30.0);
+  EXPECT_EQ(done.code, 2);
+  EXPECT_NE(done.err.find("needs a CG width"), std::string::npos) << done.err;
+}
+
+}  // namespace
+}  // namespace cosim::testing
