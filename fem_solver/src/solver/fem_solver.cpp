@@ -208,6 +208,8 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     relaxation_.tolerance = newton.tolerance;
     relaxation_.maxIterations = newton.maxIterations;
     newton.linearSolver = in.text("linear_solver", newton.linearSolver);
+    newton.tangentReuse = static_cast<int>(in.integer("tangent_reuse", 0));
+    if (newton.tangentReuse < 0) in.fail(in.get("tangent_reuse"), in.path() + ".tangent_reuse must be >= 0");
     if (newton.linearSolver != "direct" && newton.linearSolver != "cg")
       in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct or cg");
     if (integratorType_ == "newmark") {

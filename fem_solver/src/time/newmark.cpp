@@ -80,11 +80,16 @@ class Newmark final : public Integrator {
     model_.externalForce(t1, fdead);
     // Follower loads change with u: re-evaluated at every iterate (their load
     // stiffness is not in the tangent, so Newton converges linearly then).
-    auto linearise = [&](Eigen::VectorXd& R, double& scale, bool) {
+    auto linearise = [&](Eigen::VectorXd& R, double& scale, bool wantTangent) {
       updateKinematics();
       fext = fdead;
       model_.addFollowerLoads(t1, state.u, fext);
       ElementEnergy en;
+      if (!wantTangent) {  // modified Newton: the factorised A of an earlier iterate stays
+        model_.internalForce(state.u, fint, en);
+        residual(state, fint, fext, Ma, R, scale);
+        return;
+      }
       model_.assembleTangent(state.u, A_, fint, en);
       // A = K_T + c0 M on the fixed pattern.
       double* av = A_.matrix().valuePtr();
@@ -102,16 +107,7 @@ class Newmark final : public Integrator {
       } else {
         for (long k = 0; k < A_.matrix().nonZeros(); ++k) av[k] += c0 * mv[k];
       }
-      model_.massTimes(state.a, Ma, lumpedMass_);
-      R.resize(model_.numFree());
-      double s1 = 0, s2 = 0, s3 = 0;
-      for (std::size_t d = 0; d < map.size(); ++d) {
-        if (map[d] >= 0) R(map[d]) = Ma[d] + fint[d] - fext[d];
-        s1 += Ma[d] * Ma[d];
-        s2 += fint[d] * fint[d];
-        s3 += fext[d] * fext[d];
-      }
-      scale = std::sqrt(s1) + std::sqrt(s2) + std::sqrt(s3);
+      residual(state, fint, fext, Ma, R, scale);
     };
     auto update = [&](const Eigen::VectorXd& du) {
       double n2 = 0.0;
@@ -123,8 +119,11 @@ class Newmark final : public Integrator {
         }
       return std::sqrt(n2);
     };
+    if (dt != factorisedDt_) factorised_ = false;  // A = K_T + M / (beta dt^2) depends on dt
+    factorisedDt_ = dt;
     report_ = detail::newtonLoop(model_, options_.newton, A_, *solver_, linearise, update,
-                                 "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")");
+                                 "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")",
+                                 &factorised_);
     updateKinematics();
     model_.checkFinite(state.u, "displacement");
     // Applied forces: external on free dofs, reactions on prescribed dofs.
@@ -137,7 +136,25 @@ class Newmark final : public Integrator {
   }
 
  private:
+  /// R = M a + f_int - f_ext on the free dofs; scale = |M a| + |f_int| + |f_ext| over all dofs.
+  void residual(const State& state, const std::vector<double>& fint, const std::vector<double>& fext,
+                std::vector<double>& Ma, Eigen::VectorXd& R, double& scale) const {
+    const auto& map = model_.dofMap();
+    model_.massTimes(state.a, Ma, lumpedMass_);
+    R.resize(model_.numFree());
+    double s1 = 0, s2 = 0, s3 = 0;
+    for (std::size_t d = 0; d < map.size(); ++d) {
+      if (map[d] >= 0) R(map[d]) = Ma[d] + fint[d] - fext[d];
+      s1 += Ma[d] * Ma[d];
+      s2 += fint[d] * fint[d];
+      s3 += fext[d] * fext[d];
+    }
+    scale = std::sqrt(s1) + std::sqrt(s2) + std::sqrt(s3);
+  }
+
   NewmarkOptions options_;
+  bool factorised_ = false;
+  double factorisedDt_ = 0.0;
   SparseSystem A_, M_;
   std::unique_ptr<LinearSolver> solver_;
 };

@@ -23,15 +23,20 @@ inline std::string history(const NewtonReport& report) {
 /// the last correction was below options.displacementTolerance of the
 /// solution (the residual then sits at its round-off floor). update returns
 /// the norm of the updated free-dof solution.
+/// With options.tangentReuse > 0, `factorised` says whether solver holds a
+/// usable factorisation from an earlier solve; the loop keeps it until a solve
+/// needs more than tangentReuse iterations, then refreshes it.
 inline NewtonReport newtonLoop(const Model& model, const NewtonOptions& options, SparseSystem& A, LinearSolver& solver,
                                const Linearise& linearise, const std::function<double(const Eigen::VectorXd&)>& update,
-                               const std::string& where) {
+                               const std::string& where, bool* factorised = nullptr) {
   NewtonReport report;
   Eigen::VectorXd R;
   double correction = 1.0;
+  const bool reuse = options.tangentReuse > 0 && factorised;
   for (int it = 0; it <= options.maxIterations; ++it) {
     double scale = 0.0;
-    linearise(R, scale, true);
+    const bool fresh = !reuse || !*factorised || it >= options.tangentReuse;
+    linearise(R, scale, fresh);
     const double norm = R.norm();
     const double rel = norm / (scale + 1e-300);
     report.residuals.push_back(rel);
@@ -41,7 +46,13 @@ inline NewtonReport newtonLoop(const Model& model, const NewtonOptions& options,
                        " (relative residuals: " + history(report) + ")");
     if (rel <= options.tolerance || norm == 0.0 || correction <= options.displacementTolerance) return report;
     if (it == options.maxIterations) break;
+    if (!fresh) {
+      const Eigen::VectorXd du = solver.solve(-R);
+      correction = du.norm() / (update(du) + 1e-300);
+      continue;
+    }
     solver.factorize(A.matrix());
+    if (factorised) *factorised = true;
     const int bad = solver.singularDof();
     if (bad >= 0) {
       const auto& map = model.dofMap();

@@ -31,6 +31,11 @@ struct NewtonOptions {
   int maxIterations = 25;
   std::string linearSolver = "direct";
   double displacementTolerance = 1e-12;  // on ||du|| / ||u - u_start of the solve||
+  // Modified Newton: keep the factorised tangent across iterations and steps,
+  // refreshing it when a solve needs more than this many iterations (0 = full
+  // Newton, a fresh tangent every iteration). Same converged answer, since only
+  // the residual decides convergence; far cheaper for small strain increments.
+  int tangentReuse = 0;
 };
 
 /// Newton convergence record of the last solve (residual history).
