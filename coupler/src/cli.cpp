@@ -5,7 +5,9 @@
 #include <vector>
 
 #include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene_overrides.hpp"
 #include "cosim/coupler/run/coupler_run.hpp"
+#include "cosim/coupler/sweep/sweep.hpp"
 #include "cosim/wire/log.hpp"
 #include "cosim/wire/message.hpp"
 
@@ -13,23 +15,36 @@ namespace cosim::coupler {
 namespace {
 
 constexpr const char* kUsage =
-    "usage: coupler run SCENE.yaml [--out DIR] [--resume] [--force] [--no-progress] [--log-level LEVEL]\n"
-    "       coupler check SCENE.yaml\n"
+    "usage: coupler run SCENE.yaml [--set KEY=VALUE ...] [--out DIR] [--resume] [--force] [--no-progress]\n"
+    "                  [--log-level LEVEL]\n"
+    "       coupler check SCENE.yaml [--set KEY=VALUE ...] [--out DIR]\n"
+    "       coupler sweep SCENE.yaml --set KEY=V1,V2,... [--set KEY2=A,B ...] [--out DIR] [--jobs N] [--force]\n"
     "\n"
     "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
     "         and DIR/run_report.json (DIR defaults to the scene's output.dir)\n"
     "  check  validate the scene and print the coupling graph and the processes it would\n"
     "         start; starts nothing\n"
+    "  sweep  run the scene once per combination of the --set values (cartesian product),\n"
+    "         each as a `coupler run` into DIR/<index>_<key=value...>/ (output in its\n"
+    "         coupler.log); write DIR/sweep.csv and plots of error against wall time\n"
+    "         (scripts/plot_sweep.py; DIR defaults to runs/<scene file stem>-sweep)\n"
     "\n"
+    "  --set KEY=VALUE  change the scene before validation; KEY is a path of map keys\n"
+    "                 separated by '.', list items as [N] or by their name\n"
+    "                 (schedule.dt=1e-5, solvers.left.params.seed=3,\n"
+    "                 solvers[1].params.gravity=[0,0,-9.81]); VALUE is YAML. The changed\n"
+    "                 scene is written to DIR/scene.effective.yaml, which messages name.\n"
+    "                 In a sweep, commas separate values except inside [] {} or quotes\n"
     "  --resume       continue the run in DIR from its last complete checkpoint\n"
     "                 (output.checkpoint_interval); the scene must be unchanged\n"
     "  --force        run even if dt exceeds a solver's critical time step\n"
     "  --no-progress  no progress line on stderr\n"
     "  --log-level    debug, info, warn, error or quiet\n"
+    "  --jobs N       sweep: runs at once (default 1)\n"
     "\n"
     "exit codes: 0 done, 1 coupler failure, 2 invalid scene or usage, 3 refused before time\n"
     "zero (handshake, capabilities, setup, stability), 4 a peer failed during the run,\n"
-    "130 interrupted\n";
+    "130 interrupted; sweep: 0 every run completed, 1 some did not, 2 usage, 130 interrupted\n";
 
 int usageError(const std::string& message) {
   std::cerr << "coupler: " << message << "\n" << kUsage;
@@ -47,9 +62,17 @@ int couplerMain(int argc, char** argv) {
     return kExitOk;
   }
   const std::string command = args[0];
+  if (command == "sweep") {
+    try {
+      return sweepMain(parseSweepArguments({args.begin() + 1, args.end()}));
+    } catch (const std::invalid_argument& e) {
+      return usageError(e.what());
+    }
+  }
   if (command != "run" && command != "check") return usageError("unknown command '" + command + "'");
   std::string scenePath;
   RunOptions options;
+  std::vector<SceneOverride> overrides;
   for (std::size_t i = 1; i < args.size(); ++i) {
     const auto& a = args[i];
     auto value = [&]() -> std::string {
@@ -58,6 +81,7 @@ int couplerMain(int argc, char** argv) {
     };
     try {
       if (a == "--out") options.outDir = value();
+      else if (a == "--set") overrides.push_back(parseOverride(value()));
       else if (a == "--force") options.force = true;
       else if (a == "--resume") options.resume = true;
       else if (a == "--no-progress") options.progress = false;
@@ -72,7 +96,8 @@ int couplerMain(int argc, char** argv) {
   if (scenePath.empty()) return usageError("no scene file given");
   log::setPrefix("coupler");
   try {
-    const Scene scene = loadScene(scenePath);
+    const Scene scene = loadSceneWithOverrides(scenePath, overrides, options.outDir);
+    if (!overrides.empty()) std::cout << "effective scene: " << scene.file << "\n";
     if (command == "check") {
       describeScene(scene, std::cout);
       return kExitOk;
@@ -80,6 +105,9 @@ int couplerMain(int argc, char** argv) {
     return runScene(scene, options);
   } catch (const config::ConfigError& e) {
     std::cerr << e.what() << "\n";
+    return kExitBadConfig;
+  } catch (const OverrideError& e) {
+    std::cerr << "coupler: " << e.what() << "\n";
     return kExitBadConfig;
   }
 }

@@ -242,17 +242,19 @@ std::vector<std::string> Scene::requiredCapabilities(const std::string& solverNa
 }
 
 Scene loadScene(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw config::ConfigError({path + ": cannot open the scene file"});
+  std::stringstream text;
+  text << in.rdbuf();
+  return loadSceneText(text.str(), path, fs::absolute(path).parent_path().string());
+}
+
+Scene loadSceneText(const std::string& text, const std::string& displayName, const std::string& sceneDir) {
   Scene scene;
-  scene.file = path;
-  {
-    std::ifstream in(path);
-    if (!in) throw config::ConfigError({path + ": cannot open the scene file"});
-    std::stringstream text;
-    text << in.rdbuf();
-    scene.text = text.str();
-  }
-  const YAML::Node rootNode = config::loadYamlString(scene.text, path);
-  Diagnostics diag(path);
+  scene.file = displayName;
+  scene.text = text;
+  const YAML::Node rootNode = config::loadYamlString(scene.text, displayName);
+  Diagnostics diag(displayName);
   if (!rootNode.IsMap()) {
     diag.error(rootNode.Mark(), "a scene is a map with keys scene, schedule, solvers, couplings, transport, output");
     diag.throwIfAny();
@@ -263,7 +265,6 @@ Scene loadScene(const std::string& path) {
   if (!scene.name.empty() && !std::regex_match(scene.name, namePattern))
     root.error("scene", "'" + scene.name + "' is not a valid scene name (letters, digits, '_', '.', '-')");
   scene.description = root.string("description", "");
-  const auto sceneDir = fs::absolute(path).parent_path().string();
   if (root.has("transport")) {
     MapReader t(root.node("transport"), "transport", diag);
     if (t.valid()) {

@@ -1,5 +1,5 @@
 #pragma once
 namespace cosim::coupler {
-/// `coupler run|check ...`: the whole command line; returns the exit code.
+/// `coupler run|check|sweep ...`: the whole command line; returns the exit code.
 int couplerMain(int argc, char** argv);
 }  // namespace cosim::coupler

@@ -56,6 +56,9 @@ struct Scene {
 
 /// Loads and validates; throws config::ConfigError (all problems, each `file:line: message`).
 Scene loadScene(const std::string& path);
+/// The same from scene text: messages name displayName; binaries given as paths
+/// resolve against sceneDir (the directory of the scene file the text came from).
+Scene loadSceneText(const std::string& text, const std::string& displayName, const std::string& sceneDir);
 
 /// Where a solver binary named without a directory is looked for: $COSIM_BIN_DIR,
 /// the coupler's own directory, then $PATH. Empty when not found.
