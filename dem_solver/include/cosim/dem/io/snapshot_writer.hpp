@@ -1,8 +1,11 @@
 #pragma once
 // Particle snapshots in one HDF5 file (/snapshots/<step>/{positions, velocities,
-// radii, angular_velocities, ids}, energies under /series) with an XDMF
-// sidecar (Polyvertex topology, one grid per snapshot in a temporal
-// collection) that ParaView opens directly.
+// radii, masses, angular_velocities, ids}, the contacts under
+// /snapshots/<step>/contacts, energies under /series) with an XDMF sidecar
+// (Polyvertex topology, one grid per snapshot in a temporal collection) that
+// ParaView opens directly. The contacts are what the coarse-grained stress and
+// boundary-force density need (coupler's cg_fields tool, Cheng 2022 Sec. 4).
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -12,6 +15,24 @@
 #include "cosim/io/xdmf.hpp"
 
 namespace cosim::dem {
+
+/// Every contact of the current state, flat xyz per row. Pair forces act on
+/// the first particle; wall forces are those the wall (plane or triangle
+/// group) exerts on the particle, at the contact point on the wall surface.
+struct ContactSnapshot {
+  std::vector<std::uint32_t> pairs;  // i j per contact
+  std::vector<double> pairPoints, pairForces;
+  std::vector<std::uint32_t> wallParticles;
+  std::vector<double> wallPoints, wallForces;
+  std::size_t pairCount() const { return pairs.size() / 2; }
+  std::size_t wallCount() const { return wallParticles.size(); }
+};
+
+/// Reads the contacts of the last force evaluation. Pair and triangle forces
+/// are the stored ones; plane-wall forces are not stored by the system, so
+/// they are re-evaluated from the stored tangential history with dt = 0
+/// (which leaves the history as it is), at the current velocities.
+ContactSnapshot contactSnapshot(const DemSystem& system);
 
 class SnapshotWriter {
  public:
