@@ -103,7 +103,8 @@ SparseMatrix homogenisationCg(const ZoneMesh& zone, const ParticleCloud& particl
     const hex8::Corners X = zone.corners(e);
     Eigen::Vector3d lo = X[0], hi = X[0];
     for (const auto& c : X) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
-    const int n = std::clamp(static_cast<int>(std::ceil(4.0 * (hi - lo).maxCoeff() / width)), 2, 24);
+    // (1 - 1e-9): equal elements whose sizes differ by round-off get the same rule.
+    const int n = std::clamp(static_cast<int>(std::ceil(4.0 * (hi - lo).maxCoeff() / width * (1.0 - 1e-9))), 2, 24);
     std::vector<double> gx, gw;
     gaussLegendre(n, gx, gw);
     // Quadrature points of this element: position, psi values, weight x det J.
