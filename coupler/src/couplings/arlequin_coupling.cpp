@@ -51,7 +51,8 @@ class ArlequinCoupling final : public Coupling {
     }
     if (kernel_ && kernel_->isDirac() && width_ > 0.0)
       m.error("width", "the dirac kernel has no width: use width 0 or kernel lucy|gaussian");
-    if (kernel_ && !kernel_->isDirac() && !(width_ > 0.0)) m.error("width", "kernel " + kernel + " needs a positive width (c, m)");
+    // width 0 is the c -> 0 limit of every kernel: the Dirac form (Eq. 19),
+    // so a sweep over c can keep its kernel.
     increments_ = m.choice("constraint", {"displacement", "increment"}, "displacement") == "increment";
     maxGrowth_ = m.number("max_energy_growth", 100.0, config::Range{1.0, 1e300, true});
     if (m.has("system")) {
