@@ -99,7 +99,11 @@ TEST(FemVolumeZone, ZoneMatrixAndQuadrature) {
   capnp::MallocMessageBuilder msg;
   auto data = msg.initRoot<proto::CouplingData>();
   auto arrays = data.initArrays(VolumeZone::kArrays);
-  zone.fill(arrays, 0, mesh, std::vector<double>(3 * mesh.numNodes(), 0.0));
+  // Distinct per-dof values show that the per-node arrays follow "<zone>/nodes".
+  std::vector<double> u(3 * mesh.numNodes()), v(3 * mesh.numNodes()), m(mesh.numNodes());
+  for (std::size_t d = 0; d < u.size(); ++d) u[d] = 1e-3 * static_cast<double>(d), v[d] = -2.0 * static_cast<double>(d);
+  for (std::size_t n = 0; n < m.size(); ++n) m[n] = 0.5 + static_cast<double>(n);
+  zone.fill(arrays, 0, mesh, u, v, m);
   double wsum = 0.0, worst = 0.0;
   for (double w : arrays[2].asReader().getValues()) wsum += w;
   auto shapes = arrays[4].asReader().getValues();
@@ -113,6 +117,26 @@ TEST(FemVolumeZone, ZoneMatrixAndQuadrature) {
   EXPECT_NEAR(wsum, V, 1e-12);
   EXPECT_LT(worst, 1e-14);
   EXPECT_EQ(std::string(arrays[5].asReader().getName().cStr()), "overlap/matrix");
+  // Connectivity, reference positions and nodal fields of the zone nodes.
+  auto nodes = arrays[0].asReader().getValues();
+  auto X = arrays[6].asReader().getValues();
+  auto elements = arrays[7].asReader().getValues();
+  auto disp = arrays[8].asReader().getValues(), vel = arrays[9].asReader().getValues();
+  auto mass = arrays[10].asReader().getValues();
+  EXPECT_EQ(std::string(arrays[7].asReader().getName().cStr()), "overlap/elements");
+  ASSERT_EQ(elements.size(), 8u * zone.elements().size());
+  ASSERT_EQ(X.size(), 3u * nodes.size());
+  ASSERT_EQ(mass.size(), nodes.size());
+  for (unsigned k = 0; k < nodes.size(); ++k) {
+    const auto n = static_cast<std::size_t>(nodes[k]);
+    EXPECT_EQ(mass[k], m[n]);
+    for (unsigned i = 0; i < 3; ++i) {
+      EXPECT_EQ(X[3 * k + i], mesh.X[3 * n + i]);
+      EXPECT_EQ(disp[3 * k + i], u[3 * n + i]);
+      EXPECT_EQ(vel[3 * k + i], v[3 * n + i]);
+    }
+  }
+  for (unsigned a = 0; a < 8; ++a) EXPECT_EQ(elements[a], mesh.elements[zone.elements()[0]][a]);
 }
 
 }  // namespace

@@ -368,7 +368,9 @@ class CouplerRun final : public ExchangeDriver {
   void runCouplings(const std::set<std::string>& advanced) {
     ScopedTimer t(report_.mappingS);
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
-    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, &*series_, advanced};
+    std::map<std::string, capnp::List<proto::NamedValue>::Reader> energies;
+    for (const auto& [name, msg] : latest_) energies.emplace(name, energiesOf(msg));
+    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, &*series_, &energies, advanced};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
   }
 

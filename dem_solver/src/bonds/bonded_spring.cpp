@@ -63,7 +63,11 @@ void BondedSprings::addForces(const Particles& p, const PeriodicCell& cell, std:
   for (std::size_t b = 0; b < nb; ++b) {
     const Vec3 d = bondVector(p, cell, b);
     const double len = norm(d);
-    force_[b] = (-stiffness * (len - rest[b]) / len) * d;  // tension and compression alike
+    // Tension and compression alike, scaled by the Arlequin weight at the
+    // bond (Cheng 2022 Eq. 26: w_ab f_ab), taken as the mean of the two
+    // particles' weights as for contacts.
+    const double wb = 0.5 * (p.weight[first[b]] + p.weight[second[b]]);
+    force_[b] = (-wb * stiffness * (len - rest[b]) / len) * d;
   }
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
   for (std::size_t i = 0; i < n; ++i)
@@ -77,7 +81,7 @@ double BondedSprings::energy(const Particles& p, const PeriodicCell& cell) const
   double e = 0.0;
   for (std::size_t b = 0; b < size(); ++b) {
     const double stretch = norm(bondVector(p, cell, b)) - rest[b];
-    e += 0.5 * stiffness * stretch * stretch;
+    e += 0.5 * (0.5 * (p.weight[first[b]] + p.weight[second[b]])) * stiffness * stretch * stretch;
   }
   return e;
 }

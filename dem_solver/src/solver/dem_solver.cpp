@@ -7,6 +7,7 @@
 
 #include "cosim/dem/io/checkpoint.hpp"
 #include "cosim/dem/measure/measures.hpp"
+#include "cosim/util/weight_profile.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::dem {
@@ -65,6 +66,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     throw SolverError(Code::BAD_INPUT, e.what());
   }
   applyInputs(context.inputs);
+  applyWeightProfile(context.inputs);
   selectZoneMembers();
   if (settings_.dt > 0.0) checkDt(settings_.dt, sceneFile_ + ": solver '" + instance_ + "': params.dt");
   if (settings_.snapshotEvery > 0) {
@@ -94,7 +96,10 @@ void DemSolver::checkDt(double dt, const std::string& where) {
 
 void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
   Particles& p = system_.particles;
-  // Forces on particles from a coupling (CouplingForces, target particles).
+  // Forces on particles from couplings (CouplingForces, target particles).
+  // The coupler restages its inputs every exchange: forces not sent again
+  // stop acting, and several entries (couplings, zones) add up.
+  for (auto& e : p.fExt) e = {};
   for (auto f : inputs.getForces()) {
     if (f.getTarget() != proto::CouplingForces::Target::PARTICLES) continue;
     const auto ids = wire::view(f.getIds());
@@ -103,11 +108,14 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
       throw SolverError(Code::BAD_INPUT, "forces for zone '" + std::string(f.getZone().cStr()) + "': " +
                                              std::to_string(values.size()) + " values for " +
                                              std::to_string(ids.size()) + " ids");
-    for (auto& e : p.fExt) e = {};
     for (std::size_t k = 0; k < ids.size(); ++k) {
       if (ids[k] >= p.size())
         throw SolverError(Code::BAD_INPUT, "forces: particle id " + std::to_string(ids[k]) + " does not exist");
-      p.fExt[ids[k]] = {values[3 * k], values[3 * k + 1], values[3 * k + 2]};
+      const Vec3 fk{values[3 * k], values[3 * k + 1], values[3 * k + 2]};
+      if (!std::isfinite(fk.x) || !std::isfinite(fk.y) || !std::isfinite(fk.z))
+        throw SolverError(Code::BAD_INPUT, "forces for zone '" + std::string(f.getZone().cStr()) +
+                                               "': non-finite force on particle " + std::to_string(ids[k]));
+      p.fExt[ids[k]] += fk;
     }
   }
   // Driven particles: kinematics from outside.
@@ -158,6 +166,31 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
     } catch (const std::exception& e) {
       throw SolverError(Code::BAD_INPUT, e.what());
     }
+  }
+}
+
+void DemSolver::applyWeightProfile(proto::CouplingData::Reader inputs) {
+  // Arlequin weight w of every particle from its initial position (Cheng
+  // 2022 Eqs. 22-24, 26), with the formula fem_solver and the coupler use.
+  if (!inputs.hasWeightProfiles() || inputs.getWeightProfiles().size() == 0) return;
+  if (inputs.getWeightProfiles().size() > 1)
+    throw SolverError(Code::BAD_INPUT, "setup: " + std::to_string(inputs.getWeightProfiles().size()) +
+                                           " weight profiles sent; a DEM solver takes one");
+  const auto wp = inputs.getWeightProfiles()[0];
+  util::WeightProfile profile;
+  profile.kind = wp.getKind().cStr();
+  profile.axis = wp.getAxis();
+  profile.start = wp.getStart();
+  profile.end = wp.getEnd();
+  if (const std::string why = profile.problem(); !why.empty())
+    throw SolverError(Code::BAD_INPUT, "setup: weight profile: " + why);
+  Particles& p = system_.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.weight[i] = profile(p.x[i]);
+    if (!(p.weight[i] > 0.0) && !p.driven[i])
+      throw SolverError(Code::BAD_INPUT, "setup: weight profile gives particle " + std::to_string(p.id[i]) +
+                                             " weight 0 (it lies beyond the profile's end " + num(profile.end) +
+                                             "): it would have no inertia; remove it from the DEM domain");
   }
 }
 

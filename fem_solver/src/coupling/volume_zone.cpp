@@ -34,7 +34,8 @@ VolumeZone::VolumeZone(std::string name, const Mesh& mesh, const Vec3& lo, const
 }
 
 void VolumeZone::fill(capnp::List<proto::NamedArray>::Builder arrays, unsigned first, const Mesh& mesh,
-                      const std::vector<double>& u) const {
+                      const std::vector<double>& u, const std::vector<double>& v,
+                      const std::vector<double>& lumpedMass) const {
   const std::size_t np = numPoints();
   std::vector<double> nodes(nodes_.begin(), nodes_.end()), pos(3 * np), ids(8 * np), shapes(8 * np);
   std::size_t p = 0;
@@ -52,12 +53,30 @@ void VolumeZone::fill(capnp::List<proto::NamedArray>::Builder arrays, unsigned f
       }
     }
   }
+  std::vector<double> reference(3 * nodes_.size()), disp(3 * nodes_.size()), vel(3 * nodes_.size()),
+      mass(nodes_.size()), connectivity(8 * elements_.size());
+  for (std::size_t k = 0; k < nodes_.size(); ++k) {
+    const auto n = static_cast<std::size_t>(nodes_[k]);
+    mass[k] = lumpedMass[n];
+    for (std::size_t i = 0; i < 3; ++i) {
+      reference[3 * k + i] = mesh.X[3 * n + i];
+      disp[3 * k + i] = u[3 * n + i];
+      vel[3 * k + i] = v[3 * n + i];
+    }
+  }
+  for (std::size_t k = 0; k < elements_.size(); ++k)
+    for (std::size_t a = 0; a < 8; ++a) connectivity[8 * k + a] = mesh.elements[elements_[k]][a];
   wire::addArray(arrays, first + 0, name_ + "/nodes", 1, nodes);
   wire::addArray(arrays, first + 1, name_ + "/qp_positions", 3, pos);
   wire::addArray(arrays, first + 2, name_ + "/qp_weights", 1, weights_);
   wire::addArray(arrays, first + 3, name_ + "/qp_nodes", 8, ids);
   wire::addArray(arrays, first + 4, name_ + "/qp_shapes", 8, shapes);
   wire::addArray(arrays, first + 5, name_ + "/matrix", 3, matrix_);
+  wire::addArray(arrays, first + 6, name_ + "/node_positions", 3, reference);
+  wire::addArray(arrays, first + 7, name_ + "/elements", 8, connectivity);
+  wire::addArray(arrays, first + 8, name_ + "/displacement", 3, disp);
+  wire::addArray(arrays, first + 9, name_ + "/velocity", 3, vel);
+  wire::addArray(arrays, first + 10, name_ + "/masses", 1, mass);
 }
 
 }  // namespace cosim::fem

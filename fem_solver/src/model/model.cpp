@@ -72,12 +72,6 @@ Model::Model(Mesh mesh, std::unique_ptr<Material> material, std::unique_ptr<Elem
   elementEnergy_.resize(2 * mesh_.numElements());
 }
 
-double WeightProfile::operator()(const Vec3& x) const {
-  const double t = std::clamp((x[axis] - start) / (end - start), 0.0, 1.0);
-  if (kind == "linear") return 1.0 - t;
-  return 0.5 * (1.0 + std::cos(M_PI * t));  // half-cosine
-}
-
 double Model::massWeight(std::size_t e, int q) const {
   return gaussWeight_.empty() ? 1.0 : gaussWeight_[8 * e + static_cast<std::size_t>(q)];
 }
@@ -104,10 +98,7 @@ void Model::computeMass() {
 }
 
 void Model::setArlequinWeight(const WeightProfile& profile) {
-  if (profile.axis < 0 || profile.axis > 2) throw InputError("weight profile: axis must be 0, 1 or 2");
-  if (profile.kind != "linear" && profile.kind != "half-cosine")
-    throw InputError("weight profile: unknown kind '" + profile.kind + "' (known: half-cosine, linear)");
-  if (!(profile.end != profile.start)) throw InputError("weight profile: start and end must differ");
+  if (const std::string why = profile.problem(); !why.empty()) throw InputError("weight profile: " + why);
   const std::size_t ne = mesh_.numElements();
   gaussWeight_.assign(8 * ne, 1.0);
   const int np = formulation_->pointsPerElement();

@@ -354,7 +354,7 @@ void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const 
   if (!zones_.empty()) {
     auto arrays = outputs.initArrays(static_cast<unsigned>(zones_.size() * VolumeZone::kArrays));
     for (unsigned i = 0; i < zones_.size(); ++i)
-      zones_[i].fill(arrays, i * VolumeZone::kArrays, model_->mesh(), state_.u);
+      zones_[i].fill(arrays, i * VolumeZone::kArrays, model_->mesh(), state_.u, state_.v, model_->lumpedMass());
   }
   if (surfaces_.empty()) return;
   auto meshes = outputs.initMeshes(static_cast<unsigned>(surfaces_.size()));

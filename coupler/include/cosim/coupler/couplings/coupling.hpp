@@ -75,6 +75,8 @@ struct ExchangeContext {
   const std::map<std::string, proto::CouplingData::Reader>& outputs;  // by solver name
   std::map<std::string, InputAssembler>& inputs;                      // by solver name
   io::SeriesWriter* series = nullptr;                                  // null in `coupler check`
+  /// Energies of each solver's latest reply, by solver name (null in `coupler check`).
+  const std::map<std::string, capnp::List<proto::NamedValue>::Reader>* energies = nullptr;
   /// Solvers whose outputs are new since the couplings last ran (all of them at setup; a
   /// staggered schedule advances some solvers per exchange).
   std::set<std::string> advanced = {};

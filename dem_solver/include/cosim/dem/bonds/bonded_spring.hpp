@@ -1,7 +1,8 @@
 #pragma once
 // Bonded linear springs between lattice neighbours (Cheng 2022 Sec. 6.2): a
 // bond acts in tension and compression, F_i = -k (|d| - d0) d/|d| with
-// d = x_i - x_j and d0 its length when created. Bonded pairs are excluded
+// d = x_i - x_j and d0 its length when created, times the Arlequin weight
+// at the bond (mean of the two particle weights). Bonded pairs are excluded
 // from the contact law (the neighbour list skips them).
 #include <cstdint>
 #include <vector>

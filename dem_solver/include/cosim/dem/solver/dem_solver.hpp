@@ -34,6 +34,7 @@ class DemSolver final : public wire::Solver {
  private:
   void checkDt(double dt, const std::string& where);
   void applyInputs(proto::CouplingData::Reader inputs);
+  void applyWeightProfile(proto::CouplingData::Reader inputs);
   void fillOutputs(proto::CouplingData::Builder outputs) const;
   void fillZones(proto::CouplingData::Builder outputs) const;
   void accumulateWallContacts();

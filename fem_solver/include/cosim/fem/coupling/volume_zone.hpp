@@ -3,7 +3,10 @@
 // the elements whose centroid lies in a box, their nodes, their 2x2x2
 // quadrature points (current position, reference weight, element node ids,
 // shape values) and the zone matrix int_{Omega^C} psi_i psi_j dV of Cheng
-// Eq. 32 as (i, j, value) triplets over global node ids.
+// Eq. 32 as (i, j, value) triplets over global node ids; the zone's element
+// connectivity and reference node positions (for the coupler's inverse
+// isoparametric map, Cheng Eq. 27 with c = 0) and the zone nodes'
+// displacements, velocities and weighted masses.
 #include <string>
 #include <vector>
 
@@ -22,11 +25,14 @@ class VolumeZone {
   /// (i, j, value) triplets, 3 per entry.
   const std::vector<double>& zoneMatrix() const { return matrix_; }
   std::size_t numPoints() const { return 8 * elements_.size(); }
-  /// Adds arrays "<name>/nodes", "/qp_positions", "/qp_weights", "/qp_nodes",
-  /// "/qp_shapes", "/matrix" from index `first` on (6 slots).
+  /// Adds, from index `first` on (kArrays slots): "<name>/nodes" (global ids),
+  /// "/node_positions" (reference, 3 per zone node), "/elements" (8 global
+  /// node ids per element), "/qp_positions" (current), "/qp_weights",
+  /// "/qp_nodes", "/qp_shapes", "/matrix", and per zone node "/displacement",
+  /// "/velocity" (3 each) and "/masses" (lumped, Arlequin-weighted by 1 - w).
   void fill(capnp::List<proto::NamedArray>::Builder arrays, unsigned first, const Mesh& mesh,
-            const std::vector<double>& u) const;
-  static constexpr unsigned kArrays = 6;
+            const std::vector<double>& u, const std::vector<double>& v, const std::vector<double>& lumpedMass) const;
+  static constexpr unsigned kArrays = 11;
 
  private:
   std::string name_;

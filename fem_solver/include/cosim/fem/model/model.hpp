@@ -10,6 +10,7 @@
 #include "cosim/fem/fem/element_formulation.hpp"
 #include "cosim/fem/material/material.hpp"
 #include "cosim/fem/mesh/mesh.hpp"
+#include "cosim/util/weight_profile.hpp"
 
 namespace cosim::fem {
 
@@ -27,14 +28,8 @@ struct Prescribed {
   double velocity(double t) const;
 };
 
-/// Arlequin weight profile w(x) along one axis (Cheng 2022 Eqs. 22-24): w = 1
-/// on the DEM side of `start`, 0 beyond `end`, linear or half-cosine between.
-struct WeightProfile {
-  std::string kind = "half-cosine";
-  int axis = 0;
-  double start = 0.0, end = 1.0;
-  double operator()(const Vec3& x) const;
-};
+/// Arlequin weight profile w(x): the formula shared with DEM and the coupler.
+using WeightProfile = util::WeightProfile;
 
 struct Energies {
   double kinetic = 0.0;

@@ -1,0 +1,91 @@
+#pragma once
+// Homogenisation of particle quantities onto the FE nodes of an Arlequin
+// zone (Cheng 2022 Sec. 5.2.2) and the penalty forces of the volume coupling
+// (Sec. 5.2.3, App. B).
+//
+// The operator Pi (Cheng Eq. 27) maps particle values to nodal values,
+// v_i = sum_a Pi_ia v_a, with Pi_ia = g_ia / sum_b g_ib and
+//   c = 0 (Eq. 19):  g_ia = m_a psi_i(x_a)            (x_a inside the zone's elements),
+//   c > 0 (Eq. 18):  g_ia = m_a int_{Omega^C} W(|x - x_a|; c) psi_i(x) dV.
+// Each row sums to one, which makes the forces on nodes and particles equal
+// and opposite (Eq. 41). Pi is built once in the reference configuration.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace cosim::coupler {
+
+class CgKernel;
+
+/// Trilinear hexahedron in fem_solver's node order (VTK: natural coordinates
+/// (-1,-1,-1), (1,-1,-1), (1,1,-1), (-1,1,-1), then the same at +1).
+namespace hex8 {
+using Corners = std::array<Eigen::Vector3d, 8>;
+std::array<double, 8> shape(const Eigen::Vector3d& xi);
+/// x(xi) and the Jacobian dx/dxi.
+Eigen::Vector3d map(const Corners& X, const Eigen::Vector3d& xi, Eigen::Matrix3d* jacobian = nullptr);
+/// Inverse isoparametric map by Newton on the trilinear map; false when it
+/// does not converge. Inside the element when |xi_k| <= 1 for all k.
+bool inverseMap(const Corners& X, const Eigen::Vector3d& x, Eigen::Vector3d& xi);
+}  // namespace hex8
+
+/// The hex8 elements of an FE coupling zone, reference configuration, as
+/// fem_solver exports them ("<zone>/nodes", "/node_positions", "/elements").
+struct ZoneMesh {
+  std::vector<std::uint32_t> nodes;                     // global node ids
+  std::vector<Eigen::Vector3d> positions;               // per zone node
+  std::vector<std::array<std::uint32_t, 8>> elements;   // zone-local node indices
+  /// Validates and converts the arrays; throws std::runtime_error naming `what`.
+  static ZoneMesh fromArrays(std::span<const double> nodes, std::span<const double> positions,
+                             std::span<const double> elements, const std::string& what);
+  hex8::Corners corners(std::size_t e) const;
+  /// Zone-local index of a global node id, or -1.
+  long localIndex(std::uint32_t node) const;
+  Eigen::Vector3d lower() const;
+  Eigen::Vector3d upper() const;
+};
+
+struct ParticleCloud {
+  std::vector<Eigen::Vector3d> positions;  // reference positions
+  std::vector<double> masses;
+};
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+/// Cheng Eq. 27, c = 0: psi_i at each particle's natural coordinates (Eq. 19).
+/// Particles outside every zone element are not coupled (zero column).
+SparseMatrix homogenisationDirac(const ZoneMesh& zone, const ParticleCloud& particles);
+/// Cheng Eq. 27, c > 0 (Eq. 18): Gauss quadrature of W psi_i over the zone
+/// elements within c of each particle.
+SparseMatrix homogenisationCg(const ZoneMesh& zone, const ParticleCloud& particles, const CgKernel& kernel, double width);
+
+/// The zone matrix M_ij = int_{Omega^C} psi_i psi_j dV (Cheng Eq. 32) from
+/// fem_solver's (global i, global j, value) triplets, in zone-local indices.
+SparseMatrix zoneMatrix(const ZoneMesh& zone, std::span<const double> triplets, const std::string& what);
+
+/// The penalty coupling of Cheng Eqs. 29-32 for fixed Pi, M and epsilon.
+class PenaltyCoupling {
+ public:
+  PenaltyCoupling(SparseMatrix pi, SparseMatrix zoneMatrix, double epsilon);
+  struct Forces {
+    Eigen::MatrixX3d uDe, uFe;         // nodal u^DE = Pi u_particles (Eq. 28), u^FE
+    Eigen::MatrixX3d onNodes;          // f_i = eps sum_j M_ij (u^DE_j - u^FE_j) (Eqs. 31, 38)
+    Eigen::MatrixX3d onParticles;      // f_a = -sum_i Pi_ia f_i (Eqs. 32, 39)
+    double energy = 0.0;               // eps/2 int |u^DE - u^FE|^2 dV (Eq. 29)
+  };
+  /// uParticles: one row per Pi column; uNodes: one row per zone node.
+  void compute(const Eigen::MatrixX3d& uParticles, const Eigen::MatrixX3d& uNodes, Forces& out) const;
+  const SparseMatrix& pi() const { return pi_; }
+  const SparseMatrix& matrix() const { return m_; }
+  double epsilon() const { return epsilon_; }
+
+ private:
+  SparseMatrix pi_, m_;
+  double epsilon_;
+};
+
+}  // namespace cosim::coupler

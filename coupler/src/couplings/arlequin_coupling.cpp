@@ -1,0 +1,335 @@
+// arlequin: FEM-DEM volume coupling by penalty in an overlap zone (Cheng 2022
+// Sec. 5.2, App. B; DESIGN.md 6.3). At setup both solvers receive the weight
+// profile w(x) (DEM weighted by w, FEM by 1 - w, Eqs. 25-26). At the first
+// exchange the coupling builds the homogenisation operator Pi (Eq. 27) from
+// the reference configuration; at every exchange it homogenises the particle
+// displacements onto the zone nodes, u^DE = Pi u_p, and stages the penalty
+// forces f_i = eps sum_j M_ij (u^DE_j - u^FE_j) on the FE nodes (Eqs. 31, 38)
+// and f_a = -sum_i Pi_ia f_i on the particles (Eqs. 32, 39), which sum to zero
+// (Eq. 41). It records the weighted mass, momentum and energy of the coupled
+// system and stops the run when the coupling diverges.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <ostream>
+#include <sstream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/mapping/cg_kernel.hpp"
+#include "cosim/coupler/mapping/homogenisation.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/util/weight_profile.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+std::string number(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+class ArlequinCoupling final : public Coupling {
+ public:
+  ArlequinCoupling(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers)
+      : Coupling(name) {
+    dem_ = requireSolverName(m, "dem", solvers);
+    fem_ = requireSolverName(m, "fem", solvers);
+    zone_ = m.requireString("zone");
+    readProfile(m);
+    epsilon_ = m.requireNumber("penalty", config::Range::positive());
+    width_ = m.number("width", 0.0, config::Range::nonNegative());
+    const std::string kernel = m.string("kernel", width_ > 0.0 ? "lucy" : "dirac");
+    try {
+      kernel_ = CgKernelRegistry::create(kernel, "CG kernel");
+    } catch (const std::invalid_argument& e) {
+      m.error("kernel", e.what());
+    }
+    if (kernel_ && kernel_->isDirac() && width_ > 0.0)
+      m.error("width", "the dirac kernel has no width: use width 0 or kernel lucy|gaussian");
+    // width 0 is the c -> 0 limit of every kernel: the Dirac form (Eq. 19),
+    // so a sweep over c can keep its kernel.
+    increments_ = m.choice("constraint", {"displacement", "increment"}, "displacement") == "increment";
+    maxGrowth_ = m.number("max_energy_growth", 100.0, config::Range{1.0, 1e300, true});
+    if (m.has("system")) {
+      config::MapReader s(m.node("system"), m.keyPath("system"), m.diagnostics());
+      systemDem_ = s.requireString("dem");
+      systemFem_ = s.requireString("fem");
+      s.finish();
+    }
+    if (!dem_.empty() && dem_ == fem_) m.error("fem", "the DEM and FEM sides must be different solvers");
+  }
+
+  std::string kind() const override { return "arlequin"; }
+  std::vector<std::string> participants() const override { return {dem_, fem_}; }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == dem_) return {"particle-states", "external-forces"};
+    return {};
+  }
+
+  void describe(std::ostream& out) const override {
+    out << dem_ << " <-> " << fem_ << ": arlequin zone " << zone_ << ", w " << profile_.kind << " along "
+        << "xyz"[profile_.axis] << " from " << profile_.start << " to " << profile_.end << ", penalty " << epsilon_
+        << " Pa/m^2, " << (width_ > 0.0 ? kernel_->name() + " c = " + number(width_) + " m" : std::string("c = 0"))
+        << ", constraint on " << (increments_ ? "increments" : "displacements");
+  }
+
+  void stageSetup(std::map<std::string, InputAssembler>& inputs) const override {
+    const InputAssembler::StagedWeightProfile wp{profile_.kind, static_cast<std::uint8_t>(profile_.axis), profile_.start,
+                                                 profile_.end};
+    inputs[dem_].stageWeightProfile(wp);
+    inputs[fem_].stageWeightProfile(wp);
+  }
+
+  void exchange(ExchangeContext& ctx) override {
+    const auto d = ctx.outputs.find(dem_), f = ctx.outputs.find(fem_);
+    if (d == ctx.outputs.end() || f == ctx.outputs.end()) return;
+    const proto::ParticleStates::Reader particles = particleZone(d->second, zone_, ctx.exchange);
+    if (!penalty_) build(particles, f->second, ctx.exchange);
+    const double dt = ctx.exchange > 0 ? ctx.time - lastTime_ : 0.0;
+    lastTime_ = ctx.time;
+    gatherDisplacements(particles, f->second, ctx.exchange, dt);
+    penalty_->compute(uParticles_, uNodes_, forces_);
+    checkForces(ctx);
+    stage(ctx);
+    record(ctx, d->second, f->second);
+  }
+
+ private:
+  void readProfile(config::MapReader& m) {
+    if (!m.has("profile")) {
+      m.error("profile", "missing: the weight profile {kind, axis, start, end}");
+      return;
+    }
+    config::MapReader p(m.node("profile"), m.keyPath("profile"), m.diagnostics());
+    profile_.kind = p.choice("kind", {"half-cosine", "linear"}, "half-cosine");
+    const std::string axis = p.choice("axis", {"x", "y", "z"}, "x");
+    profile_.axis = axis == "x" ? 0 : axis == "y" ? 1 : 2;
+    profile_.start = p.requireNumber("start");
+    profile_.end = p.requireNumber("end");
+    p.finish();
+    if (p.valid() && m.diagnostics().ok())
+      if (const std::string why = profile_.problem(); !why.empty()) m.error("profile", why);
+  }
+
+  std::string where(std::uint64_t exchange) const {
+    return "coupling '" + name() + "' (exchange " + std::to_string(exchange) + ")";
+  }
+
+  proto::ParticleStates::Reader particleZone(proto::CouplingData::Reader out, const std::string& zone,
+                                             std::uint64_t exchange) const {
+    for (auto s : out.getParticles())
+      if (zone == s.getZone().cStr()) return s;
+    throw std::runtime_error(where(exchange) + ": solver '" + dem_ + "' sent no particle zone '" + zone +
+                             "' (declare it under its params.zones)");
+  }
+
+  std::span<const double> femArray(proto::CouplingData::Reader out, const std::string& zone, const std::string& what,
+                                   std::uint64_t exchange) const {
+    proto::NamedArray::Reader a;
+    if (!wire::findArray(out.getArrays(), zone + "/" + what, a))
+      throw std::runtime_error(where(exchange) + ": solver '" + fem_ + "' sent no array '" + zone + "/" + what +
+                               "' (declare the zone under its params.coupling.zones)");
+    return wire::view(a.getValues());
+  }
+
+  /// Pi (Eq. 27) and M (Eq. 32) from the reference configuration.
+  void build(const proto::ParticleStates::Reader& particles, proto::CouplingData::Reader fem, std::uint64_t exchange) {
+    const std::string what = where(exchange) + ": FEM zone '" + zone_ + "'";
+    mesh_ = ZoneMesh::fromArrays(femArray(fem, zone_, "nodes", exchange), femArray(fem, zone_, "node_positions", exchange),
+                                 femArray(fem, zone_, "elements", exchange), what);
+    const Eigen::Vector3d extent = mesh_.upper() - mesh_.lower();
+    if (width_ > extent[profile_.axis])
+      throw std::runtime_error(where(exchange) + ": CG width c = " + number(width_) + " m exceeds the coupling zone's length " +
+                               number(extent[profile_.axis]) + " m along the profile axis: the homogenisation would reach far outside it");
+    ParticleCloud cloud = referenceCloud(particles, exchange);
+    SparseMatrix pi = width_ > 0.0 ? homogenisationCg(mesh_, cloud, *kernel_, width_) : homogenisationDirac(mesh_, cloud);
+    penalty_ = std::make_unique<PenaltyCoupling>(std::move(pi), zoneMatrix(mesh_, femArray(fem, zone_, "matrix", exchange), what),
+                                                 epsilon_);
+    nodeIds_ = mesh_.nodes;
+    particleForces_.assign(3 * particleIds_.size(), 0.0);
+    nodeForces_.assign(3 * nodeIds_.size(), 0.0);
+  }
+
+  ParticleCloud referenceCloud(const proto::ParticleStates::Reader& s, std::uint64_t exchange) {
+    const auto ids = wire::view(s.getIds());
+    const auto x = wire::view(s.getPositions()), u = wire::view(s.getDisplacements());
+    const auto m = wire::view(s.getMasses());
+    if (ids.empty()) throw std::runtime_error(where(exchange) + ": DEM zone '" + zone_ + "' holds no particle");
+    if (x.size() != 3 * ids.size() || u.size() != 3 * ids.size() || m.size() != ids.size())
+      throw std::runtime_error(where(exchange) + ": DEM zone '" + zone_ + "' arrays do not match its " +
+                               std::to_string(ids.size()) + " ids");
+    ParticleCloud c;
+    particleIds_.assign(ids.begin(), ids.end());
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      c.positions.emplace_back(x[3 * k] - u[3 * k], x[3 * k + 1] - u[3 * k + 1], x[3 * k + 2] - u[3 * k + 2]);
+      c.masses.push_back(m[k]);
+    }
+    return c;
+  }
+
+  void gatherDisplacements(const proto::ParticleStates::Reader& s, proto::CouplingData::Reader fem, std::uint64_t exchange,
+                           double dt) {
+    const auto ids = wire::view(s.getIds());
+    const auto u = wire::view(s.getDisplacements());
+    if (ids.size() != particleIds_.size() || !std::equal(ids.begin(), ids.end(), particleIds_.begin()) ||
+        u.size() != 3 * ids.size())
+      throw std::runtime_error(where(exchange) + ": DEM zone '" + zone_ + "' changed its particles since setup");
+    const auto un = femArray(fem, zone_, "displacement", exchange);
+    if (un.size() != 3 * nodeIds_.size())
+      throw std::runtime_error(where(exchange) + ": FEM zone '" + zone_ + "' sent " + std::to_string(un.size()) +
+                               " displacement values for " + std::to_string(nodeIds_.size()) + " nodes");
+    Eigen::MatrixX3d up(static_cast<Eigen::Index>(ids.size()), 3), uf(static_cast<Eigen::Index>(nodeIds_.size()), 3);
+    for (Eigen::Index k = 0; k < up.rows(); ++k)
+      for (Eigen::Index i = 0; i < 3; ++i) up(k, i) = u[static_cast<std::size_t>(3 * k + i)];
+    for (Eigen::Index k = 0; k < uf.rows(); ++k)
+      for (Eigen::Index i = 0; i < 3; ++i) uf(k, i) = un[static_cast<std::size_t>(3 * k + i)];
+    // Both solvers apply the staged forces at the end of their next step
+    // (velocity Verlet / central differences evaluate forces at t + dt). A
+    // penalty computed from the displacements at t would lag one step, which
+    // pumps energy into the stiff penalty springs; predict the displacements
+    // at t + dt instead, u + dt v + dt^2/2 a, with a from the last two
+    // velocities (exact for one step per exchange).
+    predict(up, velocitiesOf(wire::view(s.getVelocities()), ids.size()), previousVp_, dt);
+    predict(uf, velocitiesOf(femArray(fem, zone_, "velocity", exchange), nodeIds_.size()), previousVn_, dt);
+    if (!up.allFinite() || !uf.allFinite())
+      throw std::runtime_error(where(exchange) + ": non-finite displacements in the coupling zone: the run diverged");
+    if (increments_) {
+      // Cheng Sec. 5.2.3: penalise the displacements of the last exchange
+      // interval, u^FE = X_t - X_{t-dt}, u^DE = v^DE dt.
+      if (previousParticles_.size() == 0) previousParticles_ = up, previousNodes_ = uf;
+      uParticles_ = up - previousParticles_;
+      uNodes_ = uf - previousNodes_;
+      previousParticles_ = up;
+      previousNodes_ = uf;
+    } else {
+      uParticles_ = up;
+      uNodes_ = uf;
+    }
+  }
+
+  Eigen::MatrixX3d velocitiesOf(std::span<const double> v, std::size_t rows) const {
+    if (v.size() != 3 * rows)
+      throw std::runtime_error("coupling '" + name() + "': " + std::to_string(v.size()) + " velocity values for " +
+                               std::to_string(rows) + " zone points");
+    Eigen::MatrixX3d out(static_cast<Eigen::Index>(rows), 3);
+    for (std::size_t k = 0; k < v.size(); ++k) out(static_cast<Eigen::Index>(k / 3), static_cast<Eigen::Index>(k % 3)) = v[k];
+    return out;
+  }
+
+  static void predict(Eigen::MatrixX3d& u, const Eigen::MatrixX3d& v, Eigen::MatrixX3d& previousV, double dt) {
+    if (dt > 0.0 && previousV.rows() == v.rows()) u += dt * v + 0.5 * dt * (v - previousV);
+    else if (dt > 0.0) u += dt * v;
+    previousV = v;
+  }
+
+  void checkForces(const ExchangeContext& ctx) const {
+    const double fn = forces_.onNodes.cwiseAbs().maxCoeff(), fp = forces_.onParticles.cwiseAbs().maxCoeff();
+    if (!std::isfinite(fn) || !std::isfinite(fp) || !std::isfinite(forces_.energy))
+      throw std::runtime_error(where(ctx.exchange) + " at t = " + number(ctx.time) + " s: the penalty forces diverged (max |f| on nodes " +
+                               number(fn) + " N, on particles " + number(fp) + " N, penalty energy " + number(forces_.energy) +
+                               " J); lower the penalty, the time step or the CG width");
+  }
+
+  void stage(ExchangeContext& ctx) {
+    for (std::size_t k = 0; k < nodeIds_.size(); ++k)
+      for (Eigen::Index i = 0; i < 3; ++i) nodeForces_[3 * k + static_cast<std::size_t>(i)] = forces_.onNodes(static_cast<Eigen::Index>(k), i);
+    for (std::size_t k = 0; k < particleIds_.size(); ++k)
+      for (Eigen::Index i = 0; i < 3; ++i)
+        particleForces_[3 * k + static_cast<std::size_t>(i)] = forces_.onParticles(static_cast<Eigen::Index>(k), i);
+    ctx.inputs[fem_].stageForces({zone_, proto::CouplingForces::Target::NODES, nodeIds_, nodeForces_});
+    ctx.inputs[dem_].stageForces({zone_, proto::CouplingForces::Target::PARTICLES, particleIds_, particleForces_});
+  }
+
+  static double energy(const ExchangeContext& ctx, const std::string& solver, std::initializer_list<const char*> names) {
+    if (!ctx.energies) return 0.0;
+    const auto it = ctx.energies->find(solver);
+    if (it == ctx.energies->end()) return 0.0;
+    double sum = 0.0;
+    for (auto e : it->second)
+      for (const char* n : names)
+        if (std::string(n) == e.getName().cStr()) sum += e.getValue();
+    return sum;
+  }
+
+  /// Weighted mass and momentum (Cheng Eqs. 25-26): DEM particles by w at
+  /// their reference positions, FE nodes by their lumped (1 - w) masses.
+  void systemTotals(proto::CouplingData::Reader dem, proto::CouplingData::Reader fem, std::uint64_t exchange,
+                    double& mass, Eigen::Vector3d& momentum) const {
+    mass = 0.0;
+    momentum.setZero();
+    const auto s = particleZone(dem, systemDem_, exchange);
+    const auto x = wire::view(s.getPositions()), u = wire::view(s.getDisplacements()), v = wire::view(s.getVelocities());
+    const auto m = wire::view(s.getMasses());
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      const double w = profile_(Eigen::Vector3d(x[3 * k] - u[3 * k], x[3 * k + 1] - u[3 * k + 1], x[3 * k + 2] - u[3 * k + 2]));
+      mass += w * m[k];
+      momentum += w * m[k] * Eigen::Vector3d(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+    }
+    const auto mn = femArray(fem, systemFem_, "masses", exchange), vn = femArray(fem, systemFem_, "velocity", exchange);
+    for (std::size_t k = 0; k < mn.size(); ++k) {
+      mass += mn[k];
+      momentum += mn[k] * Eigen::Vector3d(vn[3 * k], vn[3 * k + 1], vn[3 * k + 2]);
+    }
+  }
+
+  void record(const ExchangeContext& ctx, proto::CouplingData::Reader dem, proto::CouplingData::Reader fem) {
+    // Solver energies arrive already weighted (DEM by w, FEM by 1 - w).
+    const double eDem = energy(ctx, dem_, {"kinetic", "elastic", "potential"});
+    const double eFem = energy(ctx, fem_, {"kinetic", "strain", "hourglass"});
+    // The penalty of the displacement form is a stored (spring) energy; the
+    // increment form's penalty acts like a damper and stores none.
+    const double total = eDem + eFem + (increments_ ? 0.0 : forces_.energy);
+    if (!std::isfinite(total))
+      throw std::runtime_error(where(ctx.exchange) + " at t = " + number(ctx.time) + " s: the weighted energy is not finite (DEM " +
+                               number(eDem) + " J, FEM " + number(eFem) + " J, penalty " + number(forces_.energy) + " J)");
+    if (referenceEnergy_ <= 0.0 && total > 0.0) referenceEnergy_ = total;
+    if (referenceEnergy_ > 0.0 && total > maxGrowth_ * referenceEnergy_)
+      throw std::runtime_error(where(ctx.exchange) + " at t = " + number(ctx.time) + " s: the coupled energy diverged: " +
+                               number(total) + " J (DEM " + number(eDem) + ", FEM " + number(eFem) + ", penalty " +
+                               number(forces_.energy) + ") is more than " + number(maxGrowth_) + " times its first value " +
+                               number(referenceEnergy_) + " J (max_energy_growth); lower the penalty or the CG width");
+    if (!ctx.series) return;
+    const Eigen::Vector3d sumNodes = forces_.onNodes.colwise().sum(), sumParticles = forces_.onParticles.colwise().sum();
+    const Eigen::Vector3d balance = sumNodes + sumParticles;
+    const double gap = (forces_.uDe - forces_.uFe).cwiseAbs().maxCoeff();
+    const std::string p = name() + "/";
+    ctx.series->append(p + "dem_energy", eDem);
+    ctx.series->append(p + "fem_energy", eFem);
+    ctx.series->append(p + "penalty_energy", forces_.energy);
+    ctx.series->append(p + "energy", total);
+    ctx.series->append(p + "force_balance", std::span<const double>(balance.data(), 3));
+    ctx.series->append(p + "max_gap", gap);
+    if (systemDem_.empty()) return;
+    double mass = 0.0;
+    Eigen::Vector3d momentum;
+    systemTotals(dem, fem, ctx.exchange, mass, momentum);
+    ctx.series->append(p + "mass", mass);
+    ctx.series->append(p + "momentum", std::span<const double>(momentum.data(), 3));
+  }
+
+  std::string dem_, fem_, zone_, systemDem_, systemFem_;
+  util::WeightProfile profile_;
+  double epsilon_ = 0.0, width_ = 0.0, maxGrowth_ = 100.0, referenceEnergy_ = 0.0, lastTime_ = 0.0;
+  bool increments_ = false;
+  std::unique_ptr<CgKernel> kernel_;
+  ZoneMesh mesh_;
+  std::unique_ptr<PenaltyCoupling> penalty_;
+  PenaltyCoupling::Forces forces_;
+  Eigen::MatrixX3d uParticles_, uNodes_, previousParticles_, previousNodes_, previousVp_, previousVn_;
+  // Staged views point into these until the next exchange.
+  std::vector<std::uint32_t> nodeIds_, particleIds_;
+  std::vector<double> nodeForces_, particleForces_;
+};
+
+const bool registered = CouplingRegistry::add(
+    "arlequin", [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<ArlequinCoupling>(name, m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

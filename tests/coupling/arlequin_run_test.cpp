@@ -1,0 +1,92 @@
+// A short C2-like run (Cheng 2022 Sec. 6.2, tests/coupling/arlequin_c2_short.yaml):
+// the real coupler with real dem_solver and fem_solver processes. The
+// weighted mass (Eqs. 25-26) must stay constant to round-off, the weighted
+// energy must stay bounded, and the wave must reach the FE beam.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "cosim/io/h5_file.hpp"
+#include "subprocess.hpp"
+
+namespace cosim::testing {
+namespace {
+namespace fs = std::filesystem;
+
+std::string sceneWith(const std::string& from, const std::string& to) {
+  std::ifstream in(sourcePath("tests/coupling/arlequin_c2_short.yaml"));
+  std::stringstream s;
+  s << in.rdbuf();
+  std::string text = s.str();
+  if (!from.empty()) {
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  return text;
+}
+
+class ArlequinRun : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = freshDirectory("cosim-arlequin"); }
+  void TearDown() override {
+    EXPECT_TRUE(processesMentioning(dir_.string()).empty()) << "processes left behind for " << dir_;
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+  Finished run(const std::string& scene) {
+    const auto path = dir_ / "scene.yaml";
+    std::ofstream(path) << scene;
+    auto f = testing::run({binary("coupler"), "run", path.string(), "--out", (dir_ / "run").string(), "--no-progress"}, 50);
+    EXPECT_FALSE(f.timedOut) << f.err;
+    return f;
+  }
+  fs::path dir_;
+};
+
+TEST_F(ArlequinRun, ShortC2SceneConservesWeightedMassAndBoundsEnergy) {
+  const Finished f = run(sceneWith("", ""));
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  auto h5 = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
+  const auto mass = h5.readArray("/series/volume/mass");
+  const auto energy = h5.readArray("/series/volume/energy");
+  const auto femEnergy = h5.readArray("/series/volume/fem_energy");
+  const auto balance = h5.readArray("/series/volume/force_balance");
+  ASSERT_EQ(mass.size(), 401u);
+  double drift = 0.0;
+  for (double m : mass) drift = std::max(drift, std::abs(m - mass[0]) / mass[0]);
+  const double e0 = energy[0], emax = *std::max_element(energy.begin(), energy.end());
+  double worstBalance = 0.0;
+  for (double b : balance) worstBalance = std::max(worstBalance, std::abs(b));
+  std::printf("[C2 short] weighted mass %.6f kg, max relative drift %.1e; energy E0 = %.6f J, max %.6f J, end %.6f J;"
+              " FEM share at the end %.6f J; max |sum of penalty forces| %.1e N\n",
+              mass[0], drift, e0, emax, energy.back(), femEnergy.back(), worstBalance);
+  EXPECT_LT(drift, 1e-12);
+  // Initial kinetic energy of the loaded layer: 4 particles, v = 0.1 m/s, w = 1.
+  const double m = 2500 * 4.0 / 3.0 * std::numbers::pi * 0.2 * 0.2 * 0.2;
+  EXPECT_NEAR(e0, 0.5 * 4 * m * 0.01, 1e-9);
+  EXPECT_LT(emax, 1.05 * e0);  // bounded: the coupling adds no energy
+  EXPECT_GT(femEnergy.back(), 0.01 * e0);  // the wave crossed into the continuum
+  EXPECT_LT(worstBalance, 1e-6);
+}
+
+TEST_F(ArlequinRun, RefusesACgWidthBeyondTheZone) {
+  const Finished f = run(sceneWith("width: 0.0", "width: 2.0"));
+  EXPECT_NE(f.code, 0);
+  EXPECT_NE((f.out + f.err).find("exceeds the coupling zone"), std::string::npos) << f.out << f.err;
+}
+
+TEST_F(ArlequinRun, StopsADivergingCouplingWithTheNumbers) {
+  // A penalty 1e4 times too stiff for dt: the penalty springs are unstable.
+  const Finished f = run(sceneWith("penalty: 1.0e10", "penalty: 1.0e14"));
+  EXPECT_EQ(f.code, 4) << f.out << f.err;
+  const std::string all = f.out + f.err;
+  EXPECT_NE(all.find("coupling 'volume' (exchange"), std::string::npos) << all;
+  EXPECT_NE(all.find("diverged"), std::string::npos) << all;
+}
+
+}  // namespace
+}  // namespace cosim::testing
