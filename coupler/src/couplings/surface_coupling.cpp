@@ -57,8 +57,11 @@ class SurfaceCoupling final : public Coupling {
       kernel_ = CgKernelRegistry::make(kernel);
     const auto scales = readScales(m);
     width_ = m.optionalLength("width", scales, config::Range::nonNegative()).value_or(0.0);
-    if (kernel_ && !kernel_->isDirac() && !(width_ > 0.0))
-      m.error(m.has("width") ? "width" : "kernel", "kernel '" + kernel + "' needs a CG width > 0 (width: 10d, 2.0 ...)");
+    if (kernel_ && !kernel_->isDirac() && !m.has("width"))
+      m.error("kernel", "kernel '" + kernel + "' needs a CG width (width: 10d, 2.0 ...; 0 gives the point form)");
+    // c = 0 is the point form for every kernel (the limit of Eqs. 14-15 is Eq. 16),
+    // so a sweep over the width can start at 0.
+    if (kernel_ && width_ == 0.0) kernel_ = CgKernelRegistry::make("dirac");
     if (kernel_ && kernel_->isDirac() && width_ > 0.0)
       m.error("width", "the dirac kernel has no width (c = 0); use kernel: lucy or gaussian for c > 0");
     const std::string kinematics = m.string("wall_kinematics", "extrapolated");

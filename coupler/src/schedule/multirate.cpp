@@ -5,7 +5,11 @@
 //   order: parallel     both advance at once from the last exchange's data;
 //          coarse-first the coarse solvers advance first, then the fine one
 //                       with the coarse state at both ends of the interval
-//                       (what interpolated wall kinematics need).
+//                       (what interpolated wall kinematics need);
+//          fine-first   the fine solver advances first (extrapolating the
+//                       coarse state), then the coarse ones with what the fine
+//                       one returned for the same interval: the interface
+//                       forces lag half a coarse step instead of one or more.
 // dt and ratio may be `auto`: dt from the fine solver's critical step, k from
 // the quotient of the coarse and fine critical steps (both times `safety`).
 #include <cmath>
@@ -33,9 +37,10 @@ class Multirate final : public Schedule {
     else ratio_ = static_cast<std::uint32_t>(m.optionalInteger("ratio", 1, 100000000).value_or(1));
     safety_ = m.number("safety", 0.5, {0.0, 1.0, true});
     const std::string order = m.string("order", "parallel");
-    if (order != "parallel" && order != "coarse-first")
-      m.error("order", "must be parallel or coarse-first, got '" + order + "'");
-    coarseFirst_ = order == "coarse-first";
+    if (order != "parallel" && order != "coarse-first" && order != "fine-first")
+      m.error("order", "must be parallel, coarse-first or fine-first, got '" + order + "'");
+    sequence_ = order == "coarse-first" ? Sequence::coarseFirst
+                : order == "fine-first" ? Sequence::fineFirst : Sequence::parallel;
     endTime_ = m.optionalNumber("end_time", config::Range::positive());
     fixedSteps_ = m.optionalInteger("coarse_steps", 1, 1000000000000L);
     if (endTime_ && fixedSteps_) m.error("coarse_steps", "give end_time or coarse_steps, not both");
@@ -49,13 +54,17 @@ class Multirate final : public Schedule {
     std::ostringstream s;
     s << "multirate: '" << fine_ << "' takes " << (autoRatio_ && ratio_ == 0 ? std::string("auto") : std::to_string(ratio_))
       << " step(s) of dt = " << (autoDt_ && dt_ == 0.0 ? std::string("auto") : formatNumber(dt_))
-      << " s per coarse step, " << (coarseFirst_ ? "coarse solvers first" : "all at once") << ", ";
+      << " s per coarse step, "
+      << (sequence_ == Sequence::coarseFirst ? "coarse solvers first"
+          : sequence_ == Sequence::fineFirst ? "fine solver first" : "all at once") << ", ";
     if (fixedSteps_) s << *fixedSteps_ << " coarse steps";
     else s << "until t = " << (endTime_ ? *endTime_ : 0.0) << " s";
     return s.str();
   }
 
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
+    if (criticalDt.size() < 2)
+      throw std::runtime_error("schedule: multirate needs the fine solver and at least one coarse solver");
     if (!criticalDt.count(fine_))
       throw std::runtime_error("schedule.fine: '" + fine_ + "' is not one of the scene's solvers");
     const CriticalStep fine = tightestStep(criticalDt, [this](const std::string& s) { return s == fine_; });
@@ -84,7 +93,7 @@ class Multirate final : public Schedule {
                                " coarse steps; a run needs between 1 and 1e12");
   }
 
-  std::uint64_t exchanges() const override { return coarseSteps() * (coarseFirst_ ? 2 : 1); }
+  std::uint64_t exchanges() const override { return coarseSteps() * perStep(); }
   double endTime() const override { return static_cast<double>(coarseSteps()) * coarseDt(); }
 
   void run(ExchangeDriver& driver) override {
@@ -93,18 +102,20 @@ class Multirate final : public Schedule {
       if (name == fine_) fine[name] = all[name] = AdvancePlan{ratio_, dt_};
       else coarse[name] = all[name] = AdvancePlan{1, coarseDt()};
     }
-    const std::uint64_t perStep = coarseFirst_ ? 2 : 1;
     // Exchanges are counted one per driver call, so a run resumed between the
-    // two halves of a coarse-first step continues with the fine half.
+    // two halves of a sequential step continues with its second half.
     for (std::uint64_t e = driver.completedExchanges(); e < exchanges() && !driver.stopRequested(); ++e) {
-      const double end = static_cast<double>(e / perStep + 1) * coarseDt();
-      if (!coarseFirst_) driver.exchange(all, end);
-      else if (e % 2 == 0 && !coarse.empty()) driver.exchange(coarse, end);
-      else driver.exchange(fine, end);
+      const double end = static_cast<double>(e / perStep() + 1) * coarseDt();
+      const bool firstHalf = e % 2 == 0;
+      if (sequence_ == Sequence::parallel || coarse.empty()) driver.exchange(all, end);
+      else if (sequence_ == Sequence::coarseFirst) driver.exchange(firstHalf ? coarse : fine, end);
+      else driver.exchange(firstHalf ? fine : coarse, end);
     }
   }
 
  private:
+  enum class Sequence { parallel, coarseFirst, fineFirst };
+  std::uint64_t perStep() const { return sequence_ == Sequence::parallel ? 1 : 2; }
   double coarseDt() const { return dt_ * ratio_; }
   std::uint64_t coarseSteps() const {
     if (fixedSteps_) return static_cast<std::uint64_t>(*fixedSteps_);
@@ -113,7 +124,8 @@ class Multirate final : public Schedule {
   }
 
   std::string fine_;
-  bool autoDt_ = false, autoRatio_ = false, coarseFirst_ = false;
+  bool autoDt_ = false, autoRatio_ = false;
+  Sequence sequence_ = Sequence::parallel;
   double dt_ = 0.0;
   std::uint32_t ratio_ = 0;
   double safety_ = 0.5;

@@ -100,6 +100,7 @@ void Model::computeMass() {
 void Model::setArlequinWeight(const WeightProfile& profile) {
   if (const std::string why = profile.problem(); !why.empty()) throw InputError("weight profile: " + why);
   const std::size_t ne = mesh_.numElements();
+  elementMass_.clear();
   gaussWeight_.assign(8 * ne, 1.0);
   const int np = formulation_->pointsPerElement();
   std::vector<double> pointScale(ne * static_cast<std::size_t>(np));
@@ -319,7 +320,7 @@ Eigen::Matrix<double, 8, 8> elementMass(const Mat83& X, double rho, const double
 void Model::assembleMass(SparseSystem& M) const {
   M.setZero();
   for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
-    const Eigen::Matrix<double, 8, 8> m = massScale_ * elementMass(mesh_.elementCoordinates(e), material_->density(), gaussScale(e));
+    const Eigen::Matrix<double, 8, 8>& m = elementMassMatrix(e);
     Mat24 Me = Mat24::Zero();
     for (int a = 0; a < 8; ++a)
       for (int b = 0; b < 8; ++b)
@@ -335,7 +336,7 @@ void Model::massTimes(const std::vector<double>& x, std::vector<double>& y, bool
     return;
   }
   for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
-    const Eigen::Matrix<double, 8, 8> m = massScale_ * elementMass(mesh_.elementCoordinates(e), material_->density(), gaussScale(e));
+    const Eigen::Matrix<double, 8, 8>& m = elementMassMatrix(e);
     const Mat83 xe = gather(e, x);
     const Mat83 ye = m * xe;
     const Hex& h = mesh_.elements[e];
@@ -352,9 +353,19 @@ double Model::kineticEnergy(const std::vector<double>& v, bool lumped) const {
   return k;
 }
 
+const Eigen::Matrix<double, 8, 8>& Model::elementMassMatrix(std::size_t e) const {
+  if (elementMass_.size() != mesh_.numElements()) {
+    elementMass_.resize(mesh_.numElements());
+    for (std::size_t k = 0; k < elementMass_.size(); ++k)
+      elementMass_[k] = massScale_ * elementMass(mesh_.elementCoordinates(k), material_->density(), gaussScale(k));
+  }
+  return elementMass_[e];
+}
+
 void Model::setMassScale(double s) {
   if (!(s > 0.0) || !std::isfinite(s)) throw InputError("mass scaling factor must be positive");
   massScale_ = s;
+  elementMass_.clear();
   for (std::size_t n = 0; n < numNodes(); ++n) lumpedMass_[n] = s * unscaledLumpedMass_[n];
 }
 

@@ -219,6 +219,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       const std::string mass = in.text("mass", "consistent");
       if (mass != "consistent" && mass != "lumped") in.fail(in.get("mass"), in.path() + ".mass must be consistent or lumped");
       o.lumpedMass = mass == "lumped";
+      o.linear = in.flag("linear", false);
       o.newton = newton;
       integrator_ = makeNewmark(*model_, o);
     } else if (integratorType_ == "central-difference") {

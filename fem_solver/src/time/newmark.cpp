@@ -4,6 +4,8 @@
 // with M a_{n+1} + f_int(u_{n+1}) = f_ext(t_{n+1}) solved by Newton on the
 // consistent tangent K_T + M / (beta dt^2) (Cheng Eqs. 5-7). beta = 1/4,
 // gamma = 1/2 (trapezoidal rule) conserves energy for linear systems.
+// With options.linear, f_int = K_0 u (K_0 the tangent at u = 0, on all dofs)
+// and the strain energy is u^T K_0 u / 2: small-strain linear elastodynamics.
 #include "cosim/fem/time/integrator.hpp"
 #include <cmath>
 
@@ -23,14 +25,14 @@ class Newmark final : public Integrator {
   std::string name() const override { return "newmark"; }
 
   void initialise(State& state) override {
+    if (options_.linear) buildLinearStiffness();
     A_.build(model_.mesh(), model_.dofMap(), model_.numFree());
     M_.build(model_.mesh(), model_.dofMap(), model_.numFree());
     model_.assembleMass(M_);
     applyPrescribed(state, state.time);
     // Initial acceleration from M a0 = f_ext - f_int (free dofs).
     std::vector<double> fint, fext;
-    ElementEnergy en;
-    model_.internalForce(state.u, fint, en);
+    internalForce(state.u, fint);
     model_.externalForce(state.time, fext);
     model_.addFollowerLoads(state.time, state.u, fext);
     const auto& map = model_.dofMap();
@@ -86,11 +88,16 @@ class Newmark final : public Integrator {
       model_.addFollowerLoads(t1, state.u, fext);
       ElementEnergy en;
       if (!wantTangent) {  // modified Newton: the factorised A of an earlier iterate stays
-        model_.internalForce(state.u, fint, en);
+        internalForce(state.u, fint);
         residual(state, fint, fext, Ma, R, scale);
         return;
       }
-      model_.assembleTangent(state.u, A_, fint, en);
+      if (options_.linear) {
+        internalForce(state.u, fint);
+        A_.matrix() = kFree_;
+      } else {
+        model_.assembleTangent(state.u, A_, fint, en);
+      }
       // A = K_T + c0 M on the fixed pattern.
       double* av = A_.matrix().valuePtr();
       const double* mv = M_.matrix().valuePtr();
@@ -120,8 +127,10 @@ class Newmark final : public Integrator {
       return std::sqrt(n2);
     };
     if (dt != factorisedDt_) factorised_ = false;  // A = K_T + M / (beta dt^2) depends on dt
+    NewtonOptions newton = options_.newton;
+    if (options_.linear) newton.tangentReuse = std::max(newton.tangentReuse, 2);  // K_0 never changes
     factorisedDt_ = dt;
-    report_ = detail::newtonLoop(model_, options_.newton, A_, *solver_, linearise, update,
+    report_ = detail::newtonLoop(model_, newton, A_, *solver_, linearise, update,
                                  "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")",
                                  &factorised_);
     updateKinematics();
@@ -135,7 +144,49 @@ class Newmark final : public Integrator {
     ++state.step;
   }
 
+ public:
+  Energies energies(const State& state) const override {
+    if (!options_.linear) return Integrator::energies(state);
+    // Without the element loop the base class would run: it would cost more than the step.
+    Energies e;
+    std::vector<double> f;
+    internalForce(state.u, f);
+    for (std::size_t d = 0; d < f.size(); ++d) e.strain += 0.5 * state.u[d] * f[d];
+    e.kinetic = model_.kineticEnergy(state.v, lumpedMass_);
+    e.externalWork = state.externalWork;
+    return e;
+  }
+
  private:
+  /// K_0 on all dofs (for f_int and reactions) and on the free ones (for A).
+  void buildLinearStiffness() {
+    const std::size_t n = model_.numDofs();
+    std::vector<int> all(n);
+    for (std::size_t d = 0; d < n; ++d) all[d] = static_cast<int>(d);
+    SparseSystem full, free;
+    full.build(model_.mesh(), all, static_cast<int>(n));
+    free.build(model_.mesh(), model_.dofMap(), model_.numFree());
+    std::vector<double> f;
+    ElementEnergy en;
+    const std::vector<double> zero(n, 0.0);
+    model_.assembleTangent(zero, full, f, en);
+    model_.assembleTangent(zero, free, f, en);
+    kFull_ = full.matrix();
+    kFree_ = free.matrix();
+  }
+
+  /// f_int(u): the elements' internal force, or K_0 u in linear mode.
+  void internalForce(const std::vector<double>& u, std::vector<double>& f) const {
+    if (!options_.linear) {
+      ElementEnergy en;
+      model_.internalForce(u, f, en);
+      return;
+    }
+    f.resize(u.size());
+    Eigen::Map<Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(f.size())) =
+        kFull_ * Eigen::Map<const Eigen::VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+  }
+
   /// R = M a + f_int - f_ext on the free dofs; scale = |M a| + |f_int| + |f_ext| over all dofs.
   void residual(const State& state, const std::vector<double>& fint, const std::vector<double>& fext,
                 std::vector<double>& Ma, Eigen::VectorXd& R, double& scale) const {
@@ -153,6 +204,7 @@ class Newmark final : public Integrator {
   }
 
   NewmarkOptions options_;
+  Eigen::SparseMatrix<double> kFull_, kFree_;  // linear mode: K_0 on all dofs and on the free ones
   bool factorised_ = false;
   double factorisedDt_ = 0.0;
   SparseSystem A_, M_;

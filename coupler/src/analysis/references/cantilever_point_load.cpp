@@ -54,13 +54,13 @@ class CantileverPointLoad final : public Reference {
     if (o.series) {
       o.series->append("analysis/total_energy", energy);
       o.series->append("analysis/positions", x);
+      o.series->append("analysis/reference_z", referenceZ(x));
     }
     if (coupled_ && !allOnBeam(x)) {
       coupled_ = false;
       fallOffTime_ = o.time;
     }
-    if (!allLeft(x)) lastOnBeam_ = o.time;
-    else finished_ = true;
+    if (allLeft(x)) finished_ = true;
     if (!coupled_ || o.exchange == 0) return;
     const double err = error(x);
     if (o.series) o.series->append("analysis/trajectory_error", err);
@@ -107,12 +107,21 @@ class CantileverPointLoad final : public Reference {
     initialPotential_ = energyOf(o, dem_, "potential");
   }
 
-  double error(std::span<const double> x) const {
-    double sum = 0.0;
-    for (std::size_t p = 0; 3 * p < x.size(); ++p) {
+  /// z_ref = z_0 - P y^3 / (3 E I) at each particle's current y.
+  std::span<const double> referenceZ(std::span<const double> x) {
+    zRef_.resize(x.size() / 3);
+    for (std::size_t p = 0; p < zRef_.size(); ++p) {
       const double y = x[3 * p + 1];
-      const double zRef = x0_[3 * p + 2] - load_ * y * y * y / (3.0 * young_ * inertia_);
-      const double dx = x[3 * p] - x0_[3 * p], dz = x[3 * p + 2] - zRef;
+      zRef_[p] = x0_[3 * p + 2] - load_ * y * y * y / (3.0 * young_ * inertia_);
+    }
+    return zRef_;
+  }
+
+  double error(std::span<const double> x) {
+    const auto zRef = referenceZ(x);
+    double sum = 0.0;
+    for (std::size_t p = 0; p < zRef.size(); ++p) {
+      const double dx = x[3 * p] - x0_[3 * p], dz = x[3 * p + 2] - zRef[p];
       sum += dx * dx + dz * dz;
     }
     return std::sqrt(sum);
@@ -148,11 +157,11 @@ class CantileverPointLoad final : public Reference {
 
   std::string dem_, zone_;
   double young_ = 0.0, inertia_ = 0.0, gravity_ = 0.0, length_ = 0.0, halfWidth_ = 0.0, axisX_ = 0.0;
-  std::vector<double> x0_, drift_;
+  std::vector<double> x0_, drift_, zRef_;
   double load_ = 0.0, initialPotential_ = 0.0;
   bool coupled_ = true, finished_ = false;
   double startTime_ = 0.0, lastTime_ = 0.0, lastError_ = 0.0, errorIntegral_ = 0.0, maxEnergy_ = 0.0;
-  double fallOffTime_ = 0.0, lastOnBeam_ = 0.0;
+  double fallOffTime_ = 0.0;
 };
 
 const bool registered = ReferenceRegistry::add(

@@ -130,6 +130,11 @@ class Model {
   mutable std::vector<double> elementForces_;      // 24 per element
   mutable std::vector<double> elementEnergy_;      // 2 per element
   mutable std::vector<Mat24> tangentBuffer_;       // element tangents of one assembly chunk
+  // Consistent element mass matrices (8 x 8 per element, scaled): constant in a
+  // total Lagrangian model, so built once and rebuilt when the mass scale or the
+  // Arlequin weights change. massTimes runs every Newmark iteration.
+  const Eigen::Matrix<double, 8, 8>& elementMassMatrix(std::size_t e) const;
+  mutable std::vector<Eigen::Matrix<double, 8, 8>> elementMass_;
 };
 
 }  // namespace cosim::fem
