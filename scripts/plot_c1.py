@@ -36,7 +36,8 @@ def load(run):
                 if key in s:
                     e = e + s[key][:]
             out[solver] = e
-    return out
+    n = min(len(v) for v in out.values() if hasattr(v, "__len__"))
+    return {k: (v[:n] if hasattr(v, "__len__") else v) for k, v in out.items()}
 
 
 def main(runs):

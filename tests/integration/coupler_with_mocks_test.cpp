@@ -402,3 +402,24 @@ TEST_F(CouplerRun, ResumeRefusesAChangedScene) {
 
 }  // namespace
 }  // namespace cosim::testing
+
+namespace cosim::testing {
+namespace {
+
+TEST_F(CouplerRun, SeriesEveryThinsTheRowsAndKeepsTheLast) {
+  SceneOptions o;
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 100}";
+  o.outputExtra = "series_every: 7";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  const auto exchange = h5.readArray("/series/exchange");
+  // Exchanges 0 (setup), 7, 14, ..., 98, and the last one (100).
+  ASSERT_EQ(exchange.size(), 16u);
+  EXPECT_DOUBLE_EQ(exchange[1], 7.0);
+  EXPECT_DOUBLE_EQ(exchange.back(), 100.0);
+  EXPECT_EQ(h5.readArray("/series/left/digest").size(), 2 * exchange.size());  // two halves per row
+}
+
+}  // namespace
+}  // namespace cosim::testing

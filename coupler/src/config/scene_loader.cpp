@@ -186,6 +186,7 @@ void readOutput(MapReader& root, Scene& scene) {
   if (!m.valid()) return;
   scene.output.dir = m.string("dir", scene.output.dir);
   scene.output.flushInterval = m.integer("flush_interval", 100, 1, 1000000000);
+  scene.output.seriesEvery = m.integer("series_every", 1, 1, 1000000000);
   scene.output.checkpointInterval = m.integer("checkpoint_interval", 0, 0, 1000000000);
   for (const auto& item : m.stringList("record")) {
     const auto dot = item.find('.');

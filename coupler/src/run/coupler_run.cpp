@@ -170,7 +170,8 @@ class CouplerRun final : public ExchangeDriver {
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
     h5_.emplace(io::H5File::openForAppend(runDir_ / "coupler.h5"));
     series_.emplace(*h5_, "/series");
-    series_->resumeAt(resumeFrom_->exchange + 1);  // the setup row and the exchanges before the checkpoint
+    // The setup row and the rows of the exchanges before the checkpoint.
+    series_->resumeAt(resumeFrom_->exchange / static_cast<std::uint64_t>(scene_.output.seriesEvery) + 1);
     log::info("resuming from exchange " + std::to_string(resumeFrom_->exchange) + " (t = " +
               std::to_string(resumeFrom_->time) + " s)");
   }
@@ -370,13 +371,24 @@ class CouplerRun final : public ExchangeDriver {
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
     std::map<std::string, capnp::List<proto::NamedValue>::Reader> energies;
     for (const auto& [name, msg] : latest_) energies.emplace(name, energiesOf(msg));
-    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, &*series_, &energies, advanced};
+    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, recordsThisExchange() ? &*series_ : nullptr, &energies,
+                        advanced};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
+  }
+
+  /// Rows of /series every output.series_every exchanges, and the last one.
+  bool recordsThisExchange() const {
+    return exchange_ % static_cast<std::uint64_t>(scene_.output.seriesEvery) == 0 ||
+           exchange_ == scene_.schedule->exchanges() || stopRequested();
   }
 
   void record() {
     ScopedTimer t(report_.outputS);
-    if (scene_.reference) observe();
+    // Decided before the analysis looks: it may end the run at this exchange.
+    const bool row = recordsThisExchange();
+    if (scene_.reference) observe(row);
+    if (exchange_ % static_cast<std::uint64_t>(scene_.output.flushInterval) == 0) series_->flush();
+    if (!row) return;
     series_->append("time", time_);
     series_->append("exchange", static_cast<double>(exchange_));
     for (const auto& [name, msg] : latest_) {
@@ -390,14 +402,13 @@ class CouplerRun final : public ExchangeDriver {
         throw std::runtime_error("output.record: solver '" + r.solver + "' sent no array '" + r.array + "'");
       series_->append(r.solver + "/" + r.array, wire::view(array.getValues()));
     }
-    if (exchange_ % static_cast<std::uint64_t>(scene_.output.flushInterval) == 0) series_->flush();
   }
 
-  void observe() {
+  void observe(bool row) {
     std::map<std::string, std::map<std::string, double>> energies;
     for (const auto& [name, msg] : latest_)
       for (auto e : energiesOf(msg)) energies[name][e.getName().cStr()] = e.getValue();
-    scene_.reference->observe(Observation{exchange_, time_, outputs_, energies, &*series_});
+    scene_.reference->observe(Observation{exchange_, time_, outputs_, energies, row ? &*series_ : nullptr});
   }
 
   void finish(const std::string& status, const std::string& message, int code) {

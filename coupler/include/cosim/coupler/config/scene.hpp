@@ -31,6 +31,7 @@ struct RecordSpec {
 struct OutputSpec {
   std::string dir;            // run directory (relative to the working directory)
   long flushInterval = 100;   // exchanges between flushes of coupler.h5
+  long seriesEvery = 1;       // exchanges between rows of /series (analyses still see every exchange)
   long checkpointInterval = 0;  // exchanges between checkpoints of every solver (0 = none)
   std::vector<RecordSpec> record;  // solver arrays stored in /series every exchange
 };
