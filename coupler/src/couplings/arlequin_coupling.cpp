@@ -16,6 +16,7 @@
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/analysis/solver_energies.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
 #include "cosim/coupler/mapping/cg_kernel.hpp"
 #include "cosim/coupler/mapping/homogenisation.hpp"
@@ -246,14 +247,7 @@ class ArlequinCoupling final : public Coupling {
   }
 
   static double energy(const ExchangeContext& ctx, const std::string& solver, std::initializer_list<const char*> names) {
-    if (!ctx.energies) return 0.0;
-    const auto it = ctx.energies->find(solver);
-    if (it == ctx.energies->end()) return 0.0;
-    double sum = 0.0;
-    for (auto e : it->second)
-      for (const char* n : names)
-        if (std::string(n) == e.getName().cStr()) sum += e.getValue();
-    return sum;
+    return ctx.energies ? sumEnergies(*ctx.energies, solver, names) : 0.0;
   }
 
   /// Weighted mass and momentum (Cheng Eqs. 25-26): DEM particles by w at

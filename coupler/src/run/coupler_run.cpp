@@ -369,8 +369,7 @@ class CouplerRun final : public ExchangeDriver {
   void runCouplings(const std::set<std::string>& advanced) {
     ScopedTimer t(report_.mappingS);
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
-    std::map<std::string, capnp::List<proto::NamedValue>::Reader> energies;
-    for (const auto& [name, msg] : latest_) energies.emplace(name, energiesOf(msg));
+    const SolverEnergies energies = latestEnergies();
     ExchangeContext ctx{exchange_, time_, outputs_, inputs_, recordsThisExchange() ? &*series_ : nullptr, &energies,
                         advanced};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
@@ -404,10 +403,14 @@ class CouplerRun final : public ExchangeDriver {
     }
   }
 
+  SolverEnergies latestEnergies() const {
+    SolverEnergies energies;
+    for (const auto& [name, msg] : latest_) energies.emplace(name, energiesOf(msg));
+    return energies;
+  }
+
   void observe(bool row) {
-    std::map<std::string, std::map<std::string, double>> energies;
-    for (const auto& [name, msg] : latest_)
-      for (auto e : energiesOf(msg)) energies[name][e.getName().cStr()] = e.getValue();
+    const SolverEnergies energies = latestEnergies();
     scene_.reference->observe(Observation{exchange_, time_, outputs_, energies, row ? &*series_ : nullptr});
   }
 

@@ -104,7 +104,7 @@ class CantileverPointLoad final : public Reference {
     drift_.assign(x.size() / 3, 0.0);
     startTime_ = lastTime_ = o.time;
     lastError_ = 0.0;
-    initialPotential_ = energyOf(o, dem_, "potential");
+    initialPotential_ = sumEnergies(o.energies, dem_, {"potential"});
   }
 
   /// z_ref = z_0 - P y^3 / (3 E I) at each particle's current y.
@@ -141,17 +141,10 @@ class CantileverPointLoad final : public Reference {
     return true;
   }
 
-  static double energyOf(const Observation& o, const std::string& solver, const std::string& name) {
-    auto s = o.energies.find(solver);
-    if (s == o.energies.end()) return 0.0;
-    auto e = s->second.find(name);
-    return e == s->second.end() ? 0.0 : e->second;
-  }
-
   double totalEnergy(const Observation& o) const {
     double total = -initialPotential_;
     for (const auto& [solver, values] : o.energies)
-      for (const char* name : {"kinetic", "strain", "hourglass", "elastic", "potential"}) total += energyOf(o, solver, name);
+      total += sumEnergies(o.energies, solver, {"kinetic", "strain", "hourglass", "elastic", "potential"});
     return total;
   }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cosim/coupler/analysis/run_report.hpp"
+#include "cosim/coupler/analysis/solver_energies.hpp"
 #include "cosim/util/registry.hpp"
 #include "data.capnp.h"
 
@@ -28,7 +29,7 @@ struct Observation {
   std::uint64_t exchange = 0;  // 0 = the outputs of setup
   double time = 0.0;
   const std::map<std::string, proto::CouplingData::Reader>& outputs;        // by solver name
-  const std::map<std::string, std::map<std::string, double>>& energies;     // by solver, then energy name
+  const SolverEnergies& energies;                                           // by solver name
   io::SeriesWriter* series = nullptr;
 };
 

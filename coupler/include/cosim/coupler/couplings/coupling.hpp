@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/coupler/analysis/solver_energies.hpp"
 #include "cosim/util/registry.hpp"
 #include "data.capnp.h"
 
@@ -76,7 +77,7 @@ struct ExchangeContext {
   std::map<std::string, InputAssembler>& inputs;                      // by solver name
   io::SeriesWriter* series = nullptr;                                  // null in `coupler check`
   /// Energies of each solver's latest reply, by solver name (null in `coupler check`).
-  const std::map<std::string, capnp::List<proto::NamedValue>::Reader>* energies = nullptr;
+  const SolverEnergies* energies = nullptr;
   /// Solvers whose outputs are new since the couplings last ran (all of them at setup; a
   /// staggered schedule advances some solvers per exchange).
   std::set<std::string> advanced = {};
