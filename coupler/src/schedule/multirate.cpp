@@ -12,6 +12,7 @@
 //                       forces lag half a coarse step instead of one or more.
 // dt and ratio may be `auto`: dt from the fine solver's critical step, k from
 // the quotient of the coarse and fine critical steps (both times `safety`).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -26,7 +27,10 @@ namespace {
 class Multirate final : public Schedule {
  public:
   explicit Multirate(config::MapReader& m) {
-    fine_ = m.requireString("fine");
+    // One solver, or a list (a pool of DEM workers that sub-cycle together).
+    if (m.has("fine") && m.node("fine").IsSequence()) fine_ = m.stringList("fine");
+    else if (auto one = m.optionalString("fine")) fine_ = {*one};
+    else m.error("fine", "missing: the solver (or list of solvers) that takes the small steps");
     const auto dtText = m.optionalString("dt");
     if (!dtText) m.error("dt", "missing: give the fine step in seconds or 'auto'");
     else if (*dtText == "auto") autoDt_ = true;
@@ -52,7 +56,7 @@ class Multirate final : public Schedule {
 
   std::string describe() const override {
     std::ostringstream s;
-    s << "multirate: '" << fine_ << "' takes " << (autoRatio_ && ratio_ == 0 ? std::string("auto") : std::to_string(ratio_))
+    s << "multirate: '" << fineNames() << "' take(s) " << (autoRatio_ && ratio_ == 0 ? std::string("auto") : std::to_string(ratio_))
       << " step(s) of dt = " << (autoDt_ && dt_ == 0.0 ? std::string("auto") : formatNumber(dt_))
       << " s per coarse step, "
       << (sequence_ == Sequence::coarseFirst ? "coarse solvers first"
@@ -63,15 +67,16 @@ class Multirate final : public Schedule {
   }
 
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
-    if (criticalDt.size() < 2)
-      throw std::runtime_error("schedule: multirate needs the fine solver and at least one coarse solver");
-    if (!criticalDt.count(fine_))
-      throw std::runtime_error("schedule.fine: '" + fine_ + "' is not one of the scene's solvers");
-    const CriticalStep fine = tightestStep(criticalDt, [this](const std::string& s) { return s == fine_; });
-    const CriticalStep coarse = tightestStep(criticalDt, [this](const std::string& s) { return s != fine_; });
+    for (const auto& name : fine_)
+      if (!criticalDt.count(name))
+        throw std::runtime_error("schedule.fine: '" + name + "' is not one of the scene's solvers");
+    if (fine_.size() >= criticalDt.size())
+      throw std::runtime_error("schedule: multirate needs a coarse solver besides the fine one(s)");
+    const CriticalStep fine = tightestStep(criticalDt, [this](const std::string& s) { return isFine(s); });
+    const CriticalStep coarse = tightestStep(criticalDt, [this](const std::string& s) { return !isFine(s); });
     if (autoDt_) {
       if (!fine.limited())
-        throw std::runtime_error("schedule.dt: 'auto' needs the fine solver '" + fine_ + "' to report a critical step");
+        throw std::runtime_error("schedule.dt: 'auto' needs the fine solver '" + fineNames() + "' to report a critical step");
       dt_ = safety_ * fine.dt;
     }
     if (autoRatio_) {
@@ -82,7 +87,7 @@ class Multirate final : public Schedule {
     }
     if (!force && dt_ > fine.dt)
       throw std::runtime_error("schedule.dt = " + formatNumber(dt_) + " s exceeds the critical step " +
-                               formatNumber(fine.dt) + " s of the fine solver '" + fine_ +
+                               formatNumber(fine.dt) + " s of the fine solver '" + fine.solver +
                                "'; lower dt, use dt: auto, or run with --force");
     if (!force && coarseDt() > coarse.dt)
       throw std::runtime_error("schedule: the coarse step ratio x dt = " + formatNumber(coarseDt()) +
@@ -99,7 +104,7 @@ class Multirate final : public Schedule {
   void run(ExchangeDriver& driver) override {
     std::map<std::string, AdvancePlan> fine, coarse, all;
     for (const auto& name : driver.solverNames()) {
-      if (name == fine_) fine[name] = all[name] = AdvancePlan{ratio_, dt_};
+      if (isFine(name)) fine[name] = all[name] = AdvancePlan{ratio_, dt_};
       else coarse[name] = all[name] = AdvancePlan{1, coarseDt()};
     }
     // Exchanges are counted one per driver call, so a run resumed between the
@@ -123,7 +128,14 @@ class Multirate final : public Schedule {
     return static_cast<std::uint64_t>(std::ceil(*endTime_ / coarseDt() - 1e-9));
   }
 
-  std::string fine_;
+  bool isFine(const std::string& solver) const { return std::find(fine_.begin(), fine_.end(), solver) != fine_.end(); }
+  std::string fineNames() const {
+    std::string out;
+    for (const auto& f : fine_) out += (out.empty() ? "" : ", ") + f;
+    return out;
+  }
+
+  std::vector<std::string> fine_;
   bool autoDt_ = false, autoRatio_ = false;
   Sequence sequence_ = Sequence::parallel;
   double dt_ = 0.0;
