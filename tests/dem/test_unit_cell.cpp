@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 constexpr double kPressure = 416e3;
 
-class UnitCell : public ::testing::Test {
+class DemUnitCell : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     CellPreparation prep;
@@ -50,9 +50,9 @@ class UnitCell : public ::testing::Test {
   static PreparationLog log_;
   static fs::path dir_;
 };
-std::unique_ptr<DemSystem> UnitCell::cell_;
-PreparationLog UnitCell::log_;
-fs::path UnitCell::dir_;
+std::unique_ptr<DemSystem> DemUnitCell::cell_;
+PreparationLog DemUnitCell::log_;
+fs::path DemUnitCell::dir_;
 
 std::string workerScene(const std::string& file, const std::string& extra) {
   return "scene: {name: t}\nsolvers:\n  - name: cells\n    kind: dem\n    params:\n      unit_cells: {file: " + file +
@@ -89,7 +89,7 @@ void setupWorker(DemSolver& s, const std::string& yaml) {
 
 std::vector<double> isotropic(double e) { return {e, 0, 0, 0, e, 0, 0, 0, e}; }
 
-TEST_F(UnitCell, PreparationReachesTargetPressureWithin2Percent) {
+TEST_F(DemUnitCell, PreparationReachesTargetPressureWithin2Percent) {
   const CellMeasures m = measureCell(*cell_);
   std::printf("prepared 150 spheres: dt %.3e s, %ld + %ld steps, porosity %.4f, Z %.3f, I_uf %.2e, "
               "sigma diag [%.5g %.5g %.5g], off-diag [%.3g %.3g %.3g] Pa\n",
@@ -107,7 +107,7 @@ TEST_F(UnitCell, PreparationReachesTargetPressureWithin2Percent) {
   EXPECT_EQ(cell_->materials.pair(0, 0).friction, 0.5);
 }
 
-TEST_F(UnitCell, ZeroIncrementReturnsPreparedStress) {
+TEST_F(DemUnitCell, ZeroIncrementReturnsPreparedStress) {
   DemSystem c = cloneCell(*cell_);
   const CellMeasures before = measureCell(c);
   const JobOutcome o = runUnitCellJob(c, {}, relaxSettings());
@@ -120,7 +120,7 @@ TEST_F(UnitCell, ZeroIncrementReturnsPreparedStress) {
   EXPECT_EQ(o.measures.porosity, before.porosity);  // the cell did not move
 }
 
-TEST_F(UnitCell, IsotropicCompressionRaisesMeanStress) {
+TEST_F(DemUnitCell, IsotropicCompressionRaisesMeanStress) {
   DemSystem c = cloneCell(*cell_);
   const CellMeasures before = measureCell(c);
   const auto inc = isotropic(-1e-4);
@@ -137,7 +137,7 @@ TEST_F(UnitCell, IsotropicCompressionRaisesMeanStress) {
   EXPECT_LT(o.measures.porosity, before.porosity);
 }
 
-TEST_F(UnitCell, CellThatCannotRelaxIsReportedWithItsId) {
+TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   DemSolver s;
   setupWorker(s, workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 10, load_steps: 10, tolerance: 1.0e-6"));
   ASSERT_NE(s.unitCells(), nullptr);
@@ -164,7 +164,7 @@ TEST_F(UnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   }
 }
 
-TEST_F(UnitCell, WorkerWithTwoCellsRestoresBitForBit) {
+TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
   const std::string yaml = workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 50000");
   DemSolver a;
   setupWorker(a, yaml);
