@@ -164,6 +164,42 @@ TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   }
 }
 
+TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {
+  const DemSystem weak = weakenedCell(*cell_, 5, 11, log_.dt, 0.01, 200000);
+  saveUnitCell(weak, (dir_ / "weak").string(), log_.dt);
+  DemSolver s;
+  setupWorker(s, workerScene((dir_ / "cell.ckpt").string(),
+                             ", weakened: {file: " + (dir_ / "weak.ckpt").string() + ", ids: [1]}"));
+  EXPECT_EQ(s.unitCells()->cell(0).particles.size(), 150u);
+  EXPECT_EQ(s.unitCells()->cell(1).particles.size(), 145u);
+  Exchange x;
+  const auto r = x.run(s, {0, 1}, std::vector<double>(18, 0.0));
+  const auto sig = wire::view(r.getStresses());
+  std::printf("weakened cell (5 of 150 removed): porosity %.4f vs %.4f, mean stress %.4g vs %.4g Pa\n",
+              r.getPorosities()[1], r.getPorosities()[0], (sig[9] + sig[13] + sig[17]) / 3, (sig[0] + sig[4] + sig[8]) / 3);
+  EXPECT_GT(r.getPorosities()[1], r.getPorosities()[0]);
+  // Bad params name the scene file, line and key.
+  auto refused = [](const std::string& yaml) {
+    DemSolver bad;
+    try {
+      setupWorker(bad, yaml);
+    } catch (const wire::SolverError& e) {
+      EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string file = (dir_ / "cell.ckpt").string();
+  EXPECT_NE(refused(workerScene(file, ", tolerence: 0.01")).find("cells.yaml:6: params.unit_cells: unknown key 'tolerence'"),
+            std::string::npos);
+  EXPECT_NE(refused(workerScene(file, ", max_steps: 0")).find("unit_cells.max_steps: must be at least 1"), std::string::npos);
+  EXPECT_NE(refused(workerScene((dir_ / "missing.ckpt").string(), "")).find("unit_cells.file"), std::string::npos);
+  EXPECT_NE(refused(workerScene(file, ", weakened: {file: " + file + ", ids: [9]}")).find("cell id 9"), std::string::npos);
+  // A worker holds only cells: other params keys are refused.
+  EXPECT_NE(refused(workerScene(file, "}\n      gravity: [0, 0, 0]\n      x: {a: 1")).find("unknown key 'gravity'"),
+            std::string::npos);
+}
+
 TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
   const std::string yaml = workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 50000");
   DemSolver a;
