@@ -14,9 +14,7 @@ constexpr std::uint32_t kVersion = 5;
 
 class Writer {
  public:
-  explicit Writer(const std::string& path) : out_(path, std::ios::binary), path_(path) {
-    if (!out_) throw std::runtime_error(path + ": cannot open checkpoint for writing");
-  }
+  Writer(std::ostream& out, const std::string& path) : out_(out), path_(path) {}
   template <class T>
   void pod(const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
@@ -39,15 +37,13 @@ class Writer {
   }
 
  private:
-  std::ofstream out_;
+  std::ostream& out_;
   std::string path_;
 };
 
 class Reader {
  public:
-  explicit Reader(const std::string& path) : in_(path, std::ios::binary), path_(path) {
-    if (!in_) throw std::runtime_error(path + ": cannot open checkpoint");
-  }
+  Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {}
   template <class T>
   T pod() {
     T v{};
@@ -76,7 +72,7 @@ class Reader {
   void check() {
     if (!in_) throw std::runtime_error(path_ + ": truncated checkpoint");
   }
-  std::ifstream in_;
+  std::istream& in_;
   std::string path_;
 };
 
@@ -95,7 +91,19 @@ void neighborArrays(IO& io, N& n) {
 }  // namespace
 
 std::uint64_t writeCheckpoint(const DemSystem& s, const std::string& path) {
-  Writer w(path);
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::runtime_error(path + ": cannot open checkpoint for writing");
+  return writeCheckpoint(s, out, path);
+}
+
+void readCheckpoint(DemSystem& s, const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open checkpoint");
+  readCheckpoint(s, in, path);
+}
+
+std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::string& path) {
+  Writer w(out, path);
   w.pod(kMagic);
   w.pod(kVersion);
   for (const auto& name : s.contactLawNames()) w.str(name);
@@ -141,8 +149,8 @@ std::uint64_t writeCheckpoint(const DemSystem& s, const std::string& path) {
   return w.finish();
 }
 
-void readCheckpoint(DemSystem& s, const std::string& path) {
-  Reader r(path);
+void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
+  Reader r(in, path);
   const auto magic = r.pod<std::array<char, 8>>();
   if (std::memcmp(magic.data(), kMagic, 8) != 0) throw std::runtime_error(path + ": not a dem_solver checkpoint");
   if (r.pod<std::uint32_t>() != kVersion) throw std::runtime_error(path + ": unsupported checkpoint version");

@@ -43,7 +43,8 @@ wire::SolverInfo DemSolver::info() const {
   i.version = "0.1.0";
   i.capabilities = wire::baseCapabilities();
   for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
-                        "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots"})
+                        "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots",
+                        "unit-cells"})
     i.capabilities.emplace_back(c);
   return i;
 }
@@ -55,8 +56,14 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   system_ = DemSystem{};
   settings_ = RunSettings{};
   reported_.clear();
+  cells_.reset();
   try {
     const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
+    if (params["unit_cells"]) {  // GMH worker: answers unitCellJobs only
+      cells_ = UnitCellWorker::fromParams(params, sceneFile_);
+      ready_ = true;
+      return;
+    }
     configure(params, sceneFile_, system_, settings_);
     system_.initialize();
     checkParticles(system_, settings_.overlapTolerance, sceneFile_ + ": solver '" + instance_ + "'");
@@ -83,7 +90,8 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   fillOutputs(outputs);
 }
 
-double DemSolver::criticalDt() const { return criticalTimeStep(system_); }
+// Unit cells relax in their own pseudo time: the coarse step does not bound them.
+double DemSolver::criticalDt() const { return cells_ ? 0.0 : criticalTimeStep(system_); }
 
 void DemSolver::checkDt(double dt, const std::string& where) {
   const double crit = criticalDt();
@@ -199,6 +207,12 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   if (request.steps == 0) throw SolverError(Code::BAD_INPUT, "advance: steps must be at least 1");
   if (!(request.dt > 0.0) || !std::isfinite(request.dt))
     throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + num(request.dt));
+  if (cells_) {
+    cells_->answer(request.inputs, outputs);
+    cells_->time += request.dt * request.steps;
+    cells_->steps += request.steps;
+    return;
+  }
   if (request.dt != checkedDt_) checkDt(request.dt, "advance (exchange " + std::to_string(request.exchange) + ")");
   applyInputs(request.inputs);
   contactSums_.assign(system_.meshes.size(), {});
@@ -326,6 +340,7 @@ void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
 }
 
 void DemSolver::fields(const std::vector<std::string>& requested, proto::CouplingData::Builder out) {
+  if (cells_) throw SolverError(Code::BAD_INPUT, "fields: this dem_solver holds unit cells; their results come as unitCellResults");
   std::vector<std::string> names = requested;
   if (names.empty())  // everything this state offers
     for (const auto& n : kFieldNames)
@@ -379,6 +394,7 @@ void DemSolver::fields(const std::vector<std::string>& requested, proto::Couplin
 }
 
 wire::NamedValues DemSolver::energies() const {
+  if (cells_) return {};  // unit cells run in pseudo time: their energies mean nothing physical
   const Energies e = dem::energies(system_);
   return {{"kinetic", e.kinetic()},           {"translational", e.translational}, {"rotational", e.rotational},
           {"elastic", e.elastic},             {"potential", e.potential},         {"dissipated", e.dissipated},
@@ -387,6 +403,7 @@ wire::NamedValues DemSolver::energies() const {
 
 std::uint64_t DemSolver::checkpoint(const std::string& path) {
   try {
+    if (cells_) return cells_->checkpoint(path);
     return writeCheckpoint(system_, path);
   } catch (const std::exception& e) {
     throw SolverError(Code::SOLVER_FAILURE, e.what());
@@ -395,6 +412,11 @@ std::uint64_t DemSolver::checkpoint(const std::string& path) {
 
 void DemSolver::restore(const std::string& path) {
   try {
+    cells_ = UnitCellWorker::restore(path);  // nullptr for a plain dem checkpoint
+    if (cells_) {
+      ready_ = true;
+      return;
+    }
     DemSystem restored;
     readCheckpoint(restored, path);
     system_ = std::move(restored);

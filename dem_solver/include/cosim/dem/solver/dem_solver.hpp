@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "cosim/dem/cell/unit_cell_worker.hpp"
 #include "cosim/dem/dem_system.hpp"
 #include "cosim/dem/io/snapshot_writer.hpp"
 #include "cosim/dem/solver/scene_params.hpp"
@@ -22,14 +23,16 @@ class DemSolver final : public wire::Solver {
   void fields(const std::vector<std::string>& names, proto::CouplingData::Builder out) override;
   std::uint64_t checkpoint(const std::string& path) override;
   void restore(const std::string& path) override;
-  double time() const override { return system_.time; }
-  std::uint64_t step() const override { return system_.step; }
+  double time() const override { return cells_ ? cells_->time : system_.time; }
+  std::uint64_t step() const override { return cells_ ? cells_->steps : system_.step; }
   double criticalDt() const override;
   wire::NamedValues energies() const override;
   std::size_t outputWordsHint() const override { return 2048 + 32 * system_.particles.size(); }
 
   DemSystem& system() { return system_; }
   const RunSettings& settings() const { return settings_; }
+  /// The GMH unit cells when params has unit_cells (then system_ is unused), else nullptr.
+  UnitCellWorker* unitCells() { return cells_.get(); }
 
  private:
   void checkDt(double dt, const std::string& where);
@@ -42,6 +45,7 @@ class DemSolver final : public wire::Solver {
   void selectZoneMembers();
   void checkFinite() const;
   DemSystem system_;
+  std::unique_ptr<UnitCellWorker> cells_;  // GMH worker mode (docs/gmh_unit_cells.md)
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
   std::vector<Vec3> referencePositions_;                 // at setup: displacements are measured from here
   // Wall contacts summed over the sub-steps of one advance, keyed by (particle, triangle)

@@ -1,0 +1,65 @@
+#pragma once
+// A GMH worker (Liu, Sun, Fish 2016 Sec. 2.3.3 steps iii-iv): many periodic
+// unit cells in one dem_solver process, each with its own DemSystem, keyed by
+// the cell id the FEM side gives its quadrature point. Scene params:
+//
+//   params:
+//     unit_cells:
+//       file: cell500.ckpt        # from dem_prepare_cell; copied into every cell
+//       first_id: 0               # cells first_id .. first_id + count - 1
+//       count: 8
+//       weakened: {file: cell500_weak.ckpt, ids: [5]}   # optional: these ids start from another file
+//       dt: 1.0e-7                # pseudo-time step; default dt_factor * critical step of the file
+//       dt_factor: 0.5
+//       tolerance: 0.01           # unbalanced-force index (Liu Eq. 57)
+//       max_steps: 20000          # relaxation budget per job
+//       load_steps: 100           # steps over which an increment is applied
+//       min_coordination: 2.0
+//       mass_damping: 1.0e5       # optional override of the file's c [1/s]
+//
+// A job whose cell does not relax within the budget, or ends with fewer
+// contacts than min_coordination, fails the advance: the error reply names
+// every such cell with its I_uf, steps, porosity and coordination.
+#include <yaml-cpp/yaml.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/dem/cell/unit_cell.hpp"
+#include "data.capnp.h"
+
+namespace cosim::dem {
+
+class UnitCellWorker {
+ public:
+  /// From params.unit_cells; every other params key is refused (a worker holds only cells).
+  static std::unique_ptr<UnitCellWorker> fromParams(const YAML::Node& params, const std::string& sceneFile);
+  /// Answers every UnitCellJobs list in inputs with a UnitCellResults list in outputs.
+  void answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs);
+  /// All cells with their full states and the settings, in one file.
+  std::uint64_t checkpoint(const std::string& path) const;
+  /// nullptr when the file is not a worker checkpoint (a plain dem checkpoint).
+  static std::unique_ptr<UnitCellWorker> restore(const std::string& path);
+
+  std::size_t size() const { return cells_.size(); }
+  const std::vector<std::uint32_t>& ids() const { return ids_; }
+  DemSystem& cell(std::uint32_t id);
+  const RelaxSettings& settings() const { return relax_; }
+  /// Coarse time and steps the worker has been advanced through (its cells run in pseudo time).
+  double time = 0.0;
+  std::uint64_t steps = 0;
+
+  UnitCellWorker(RelaxSettings relax) : relax_(relax) {}
+  void add(std::uint32_t id, DemSystem cell);
+
+ private:
+  RelaxSettings relax_;
+  std::vector<std::uint32_t> ids_;
+  std::vector<std::unique_ptr<DemSystem>> cells_;
+  std::map<std::uint32_t, std::size_t> index_;
+};
+
+}  // namespace cosim::dem

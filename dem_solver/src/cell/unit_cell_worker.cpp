@@ -1,0 +1,211 @@
+#include "cosim/dem/cell/unit_cell_worker.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <span>
+#include <sstream>
+
+#include "cosim/dem/io/checkpoint.hpp"
+#include "cosim/dem/measure/measures.hpp"
+#include "cosim/dem/solver/yaml_section.hpp"
+#include "cosim/wire/arrays.hpp"
+#include "cosim/wire/solver.hpp"
+
+namespace cosim::dem {
+namespace {
+
+using wire::SolverError;
+using Code = proto::Error::Code;
+
+constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'G', 'M', 'H'};
+constexpr std::uint32_t kVersion = 1;
+
+/// A relative cell file is looked up next to the scene first, then as given.
+std::string resolve(const std::string& file, const std::string& sceneFile) {
+  const std::filesystem::path p(file);
+  if (p.is_absolute()) return file;
+  const std::filesystem::path beside = std::filesystem::path(sceneFile).parent_path() / p;
+  return std::filesystem::exists(beside) ? beside.string() : file;
+}
+
+DemSystem loadCell(const YamlSection& s, const std::string& key, const std::string& sceneFile) {
+  DemSystem cell;
+  try {
+    readCheckpoint(cell, resolve(s.text(key), sceneFile));
+  } catch (const std::exception& e) {
+    s.fail(key, e.what());
+  }
+  if (!cell.cell.enabled) s.fail(key, "'" + s.text(key) + "' holds no periodic cell (prepare it with dem_prepare_cell)");
+  cell.cell.velocityGradient = {};
+  return cell;
+}
+
+RelaxSettings readRelaxSettings(const YamlSection& s, const DemSystem& prototype) {
+  RelaxSettings r;
+  const double factor = s.positive("dt_factor", 0.5);
+  if (factor > 1.0) s.fail("dt_factor", "must not exceed 1");
+  r.dt = s.positive("dt", factor * criticalTimeStep(prototype));
+  r.tolerance = s.positive("tolerance", 0.01);
+  r.maxSteps = s.integer("max_steps", 20000);
+  if (r.maxSteps < 1) s.fail("max_steps", "must be at least 1");
+  r.loadSteps = s.integer("load_steps", 100);
+  if (r.loadSteps < 1) s.fail("load_steps", "must be at least 1");
+  r.minCoordination = s.number("min_coordination", 2.0);
+  if (r.minCoordination < 0.0) s.fail("min_coordination", "must not be negative");
+  return r;
+}
+
+std::array<double, 9> increment(std::span<const double> values, std::size_t k, std::uint32_t id) {
+  std::array<double, 9> d{};
+  for (std::size_t c = 0; c < 9; ++c) {
+    d[c] = values[9 * k + c];
+    if (!std::isfinite(d[c]))
+      throw SolverError(Code::BAD_INPUT, "unit-cell jobs: non-finite strain increment for cell " + std::to_string(id));
+  }
+  return d;
+}
+
+}  // namespace
+
+std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& node, const std::string& sceneFile) {
+  const YamlSection params(node, sceneFile, "params", {"unit_cells"});
+  const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "weakened", "dt", "dt_factor",
+                                                    "tolerance", "max_steps", "load_steps", "min_coordination",
+                                                    "mass_damping"});
+  DemSystem prototype = loadCell(s, "file", sceneFile);
+  if (s.has("mass_damping")) {
+    prototype.massDamping = s.number("mass_damping");
+    if (prototype.massDamping < 0.0) s.fail("mass_damping", "must not be negative");
+  }
+  auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, prototype));
+  const long first = s.integer("first_id", 0), count = s.integer("count", 1);
+  if (first < 0) s.fail("first_id", "must not be negative");
+  if (count < 1) s.fail("count", "must be at least 1");
+  std::set<std::uint32_t> weakIds;
+  std::unique_ptr<DemSystem> weak;
+  if (s.has("weakened")) {
+    const YamlSection w = s.child("weakened", {"file", "ids"});
+    weak = std::make_unique<DemSystem>(loadCell(w, "file", sceneFile));
+    weak->massDamping = prototype.massDamping;
+    const YAML::Node ids = w.node("ids");
+    if (!ids || !ids.IsSequence()) w.fail("ids", "expected a list of cell ids");
+    for (const auto& id : ids) {
+      const long v = id.as<long>(-1);
+      if (v < first || v >= first + count)
+        w.fail("ids", "cell id " + id.as<std::string>("?") + " is not among first_id .. first_id + count - 1");
+      weakIds.insert(static_cast<std::uint32_t>(v));
+    }
+  }
+  for (long k = 0; k < count; ++k) {
+    const auto id = static_cast<std::uint32_t>(first + k);
+    worker->add(id, cloneCell(weakIds.count(id) ? *weak : prototype));
+  }
+  return worker;
+}
+
+void UnitCellWorker::add(std::uint32_t id, DemSystem cell) {
+  if (index_.count(id)) throw std::runtime_error("unit cell " + std::to_string(id) + " added twice");
+  index_[id] = cells_.size();
+  ids_.push_back(id);
+  cells_.push_back(std::make_unique<DemSystem>(std::move(cell)));
+}
+
+DemSystem& UnitCellWorker::cell(std::uint32_t id) {
+  const auto it = index_.find(id);
+  if (it == index_.end())
+    throw SolverError(Code::BAD_INPUT, "unit-cell jobs: cell " + std::to_string(id) + " is not held by this worker (it holds " +
+                                           std::to_string(ids_.size()) + " cells from " +
+                                           (ids_.empty() ? std::string("-") : std::to_string(ids_.front())) + ")");
+  return *cells_[it->second];
+}
+
+void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs) {
+  if (!inputs.hasUnitCellJobs()) return;
+  const auto jobLists = inputs.getUnitCellJobs();
+  auto resultLists = outputs.initUnitCellResults(jobLists.size());
+  std::string failures;
+  for (unsigned list = 0; list < jobLists.size(); ++list) {
+    const auto jobs = jobLists[list];
+    const auto ids = wire::view(jobs.getCellIds());
+    const auto strains = wire::view(jobs.getStrainIncrements());
+    if (strains.size() != 9 * ids.size())
+      throw SolverError(Code::BAD_INPUT, "unit-cell jobs: " + std::to_string(strains.size()) + " strain values for " +
+                                             std::to_string(ids.size()) + " cells (need 9 each)");
+    for (std::uint32_t id : ids) cell(id);  // every id known before any cell moves
+    auto r = resultLists[list];
+    const auto n = static_cast<unsigned>(ids.size());
+    auto outIds = wire::view(r.initCellIds(n));
+    auto stress = wire::view(r.initStresses(9 * n));
+    auto porosity = wire::view(r.initPorosities(n));
+    auto coordination = wire::view(r.initCoordinationNumbers(n));
+    auto index = wire::view(r.initUnbalancedForceIndices(n));
+    auto jobSteps = wire::view(r.initRelaxationSteps(n));
+    for (unsigned k = 0; k < n; ++k) {
+      const JobOutcome o = runUnitCellJob(cell(ids[k]), increment(strains, k, ids[k]), relax_);
+      outIds[k] = ids[k];
+      for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = o.measures.stress[c];
+      porosity[k] = o.measures.porosity;
+      coordination[k] = o.measures.coordination;
+      index[k] = o.measures.unbalancedForceIndex;
+      jobSteps[k] = static_cast<std::uint32_t>(o.steps);
+      if (const std::string why = o.problem(); !why.empty())
+        failures += (failures.empty() ? "" : "; ") + std::string("cell ") + std::to_string(ids[k]) + ": " + why;
+    }
+  }
+  if (!failures.empty()) throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
+}
+
+std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::runtime_error(path + ": cannot open checkpoint for writing");
+  auto pod = [&out](const auto& v) { out.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
+  pod(kMagic);
+  pod(kVersion);
+  pod(relax_.dt); pod(relax_.tolerance); pod(relax_.maxSteps); pod(relax_.loadSteps); pod(relax_.checkEvery);
+  pod(relax_.minCoordination);
+  pod(time); pod(steps);
+  pod(static_cast<std::uint64_t>(cells_.size()));
+  for (std::size_t k = 0; k < cells_.size(); ++k) {
+    pod(ids_[k]);
+    writeCheckpoint(*cells_[k], out, path);
+  }
+  out.flush();
+  if (!out) throw std::runtime_error(path + ": write failed");
+  return static_cast<std::uint64_t>(out.tellp());
+}
+
+std::unique_ptr<UnitCellWorker> UnitCellWorker::restore(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open checkpoint");
+  char magic[8] = {};
+  in.read(magic, 8);
+  if (!in || std::memcmp(magic, kMagic, 8) != 0) return nullptr;
+  auto pod = [&in, &path](auto& v) {
+    in.read(reinterpret_cast<char*>(&v), sizeof(v));
+    if (!in) throw std::runtime_error(path + ": truncated unit-cell worker checkpoint");
+  };
+  std::uint32_t version = 0;
+  pod(version);
+  if (version != kVersion) throw std::runtime_error(path + ": unsupported unit-cell worker checkpoint version");
+  RelaxSettings r;
+  pod(r.dt); pod(r.tolerance); pod(r.maxSteps); pod(r.loadSteps); pod(r.checkEvery); pod(r.minCoordination);
+  auto worker = std::make_unique<UnitCellWorker>(r);
+  pod(worker->time); pod(worker->steps);
+  std::uint64_t count = 0;
+  pod(count);
+  if (count > (std::uint64_t{1} << 24)) throw std::runtime_error(path + ": corrupt unit-cell worker checkpoint (cell count)");
+  for (std::uint64_t k = 0; k < count; ++k) {
+    std::uint32_t id = 0;
+    pod(id);
+    DemSystem cell;
+    readCheckpoint(cell, in, path);
+    worker->add(id, std::move(cell));
+  }
+  return worker;
+}
+
+}  // namespace cosim::dem

@@ -1,0 +1,239 @@
+// GMH unit cells (Liu, Sun, Fish 2016 Sec. 2.3): preparation to an isotropic
+// pressure, unit-cell jobs (zero and compressive increments), a cell that
+// cannot relax within its budget, and a worker with two cells restored from a
+// checkpoint. One small cell is prepared once for the whole suite.
+#include <capnp/message.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cosim/dem/cell/unit_cell.hpp"
+#include "cosim/dem/measure/measures.hpp"
+#include "cosim/dem/solver/dem_solver.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::dem {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kPressure = 416e3;
+
+class DemUnitCell : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    CellPreparation prep;
+    prep.count = 150;
+    prep.seed = 3;
+    prep.pressure = kPressure;
+    cell_ = std::make_unique<DemSystem>(prepareUnitCell(prep, &log_));
+    dir_ = fs::temp_directory_path() / ("cosim_unit_cell_test_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    saveUnitCell(*cell_, (dir_ / "cell").string(), log_.dt);
+  }
+  static void TearDownTestSuite() {
+    cell_.reset();
+    fs::remove_all(dir_);
+  }
+  static RelaxSettings relaxSettings() {
+    RelaxSettings r;
+    r.dt = log_.dt;
+    r.tolerance = 0.01;
+    r.maxSteps = 200000;
+    return r;
+  }
+  static std::unique_ptr<DemSystem> cell_;
+  static PreparationLog log_;
+  static fs::path dir_;
+};
+std::unique_ptr<DemSystem> DemUnitCell::cell_;
+PreparationLog DemUnitCell::log_;
+fs::path DemUnitCell::dir_;
+
+std::string workerScene(const std::string& file, const std::string& extra) {
+  return "scene: {name: t}\nsolvers:\n  - name: cells\n    kind: dem\n    params:\n      unit_cells: {file: " + file +
+         ", count: 2" + extra + "}\n";
+}
+
+// Runs one advance carrying one UnitCellJobs list; returns the reply's results.
+struct Exchange {
+  capnp::MallocMessageBuilder inMsg, outMsg;
+  proto::UnitCellResults::Reader run(DemSolver& s, const std::vector<std::uint32_t>& ids,
+                                     const std::vector<double>& increments) {
+    auto inputs = inMsg.initRoot<proto::CouplingData>();
+    auto jobs = inputs.initUnitCellJobs(1)[0];
+    jobs.setDt(1e-6);
+    auto i = wire::view(jobs.initCellIds(static_cast<unsigned>(ids.size())));
+    auto e = wire::view(jobs.initStrainIncrements(static_cast<unsigned>(increments.size())));
+    std::copy(ids.begin(), ids.end(), i.begin());
+    std::copy(increments.begin(), increments.end(), e.begin());
+    wire::AdvanceRequest r;
+    r.steps = 1;
+    r.dt = 1e-6;
+    r.inputs = inputs.asReader();
+    auto out = outMsg.initRoot<proto::CouplingData>();
+    s.advance(r, out);
+    return out.asReader().getUnitCellResults()[0];
+  }
+};
+
+void setupWorker(DemSolver& s, const std::string& yaml) {
+  capnp::MallocMessageBuilder in, out;
+  wire::SetupContext c{"cells.yaml", yaml, "cells", "", in.initRoot<proto::CouplingData>().asReader()};
+  s.setup(c, out.initRoot<proto::CouplingData>());
+}
+
+std::vector<double> isotropic(double e) { return {e, 0, 0, 0, e, 0, 0, 0, e}; }
+
+TEST_F(DemUnitCell, PreparationReachesTargetPressureWithin2Percent) {
+  const CellMeasures m = measureCell(*cell_);
+  std::printf("prepared 150 spheres: dt %.3e s, %ld + %ld steps, porosity %.4f, Z %.3f, I_uf %.2e, "
+              "sigma diag [%.5g %.5g %.5g], off-diag [%.3g %.3g %.3g] Pa\n",
+              log_.dt, log_.compressionSteps, log_.frictionSteps, m.porosity, m.coordination, m.unbalancedForceIndex,
+              m.stress[0], m.stress[4], m.stress[8], m.stress[1], m.stress[2], m.stress[5]);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const double target = a == b ? -kPressure : 0.0;
+      EXPECT_NEAR(m.stress[static_cast<std::size_t>(3 * a + b)], target, 0.02 * kPressure) << a << b;
+    }
+  EXPECT_LT(m.unbalancedForceIndex, 0.01);
+  EXPECT_GT(m.coordination, 4.0);                          // jammed frictional skeleton
+  EXPECT_TRUE(m.porosity > 0.30 && m.porosity < 0.42) << m.porosity;  // dense random packing
+  // Friction is switched on at the end: the material carries mu = 0.5.
+  EXPECT_EQ(cell_->materials.pair(0, 0).friction, 0.5);
+}
+
+TEST_F(DemUnitCell, ZeroIncrementReturnsPreparedStress) {
+  DemSystem c = cloneCell(*cell_);
+  const CellMeasures before = measureCell(c);
+  const JobOutcome o = runUnitCellJob(c, {}, relaxSettings());
+  std::printf("zero increment: %ld steps, I_uf %.2e, max |d sigma| / p = ", o.steps, o.measures.unbalancedForceIndex);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < 9; ++k) worst = std::max(worst, std::fabs(o.measures.stress[k] - before.stress[k]));
+  std::printf("%.2e\n", worst / kPressure);
+  EXPECT_TRUE(o.problem().empty()) << o.problem();
+  EXPECT_LT(worst, 0.005 * kPressure);
+  EXPECT_EQ(o.measures.porosity, before.porosity);  // the cell did not move
+}
+
+TEST_F(DemUnitCell, IsotropicCompressionRaisesMeanStress) {
+  DemSystem c = cloneCell(*cell_);
+  const CellMeasures before = measureCell(c);
+  const auto inc = isotropic(-1e-4);
+  std::array<double, 9> d{};
+  std::copy(inc.begin(), inc.end(), d.begin());
+  const JobOutcome o = runUnitCellJob(c, d, relaxSettings());
+  const double dp = o.measures.pressure - before.pressure;
+  std::printf("volumetric strain -3e-4: mean stress %.5g -> %.5g Pa, secant K = %.4g MPa, %ld steps\n",
+              -before.pressure, -o.measures.pressure, dp / 3e-4 / 1e6, o.steps);
+  EXPECT_TRUE(o.problem().empty()) << o.problem();
+  // Hertz contacts: K of order 100 MPa..1 GPa at 416 kPa, so dp of order 30..300 kPa.
+  EXPECT_GT(dp, 0.05 * kPressure);
+  EXPECT_LT(dp, 1.0 * kPressure);
+  EXPECT_LT(o.measures.porosity, before.porosity);
+}
+
+TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
+  DemSolver s;
+  setupWorker(s, workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 10, load_steps: 10, tolerance: 1.0e-6"));
+  ASSERT_NE(s.unitCells(), nullptr);
+  EXPECT_EQ(s.unitCells()->size(), 2u);
+  Exchange x;
+  try {
+    x.run(s, {1}, isotropic(-1e-3));
+    FAIL() << "a cell over its relaxation budget was accepted";
+  } catch (const wire::SolverError& e) {
+    const std::string msg = e.what();
+    std::printf("reported: %s\n", msg.c_str());
+    EXPECT_EQ(e.code(), proto::Error::Code::SOLVER_FAILURE);
+    EXPECT_NE(msg.find("cell 1:"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("I_uf"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find("cell 0"), std::string::npos) << msg;  // only the failing cell
+  }
+  // An id the worker does not hold is bad input naming the id.
+  try {
+    x.run(s, {7}, isotropic(0.0));
+    FAIL() << "unknown cell id accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+    EXPECT_NE(std::string(e.what()).find("cell 7"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {
+  const DemSystem weak = weakenedCell(*cell_, 5, 11, log_.dt, 0.01, 200000);
+  saveUnitCell(weak, (dir_ / "weak").string(), log_.dt);
+  DemSolver s;
+  setupWorker(s, workerScene((dir_ / "cell.ckpt").string(),
+                             ", weakened: {file: " + (dir_ / "weak.ckpt").string() + ", ids: [1]}"));
+  EXPECT_EQ(s.unitCells()->cell(0).particles.size(), 150u);
+  EXPECT_EQ(s.unitCells()->cell(1).particles.size(), 145u);
+  Exchange x;
+  const auto r = x.run(s, {0, 1}, std::vector<double>(18, 0.0));
+  const auto sig = wire::view(r.getStresses());
+  std::printf("weakened cell (5 of 150 removed): porosity %.4f vs %.4f, mean stress %.4g vs %.4g Pa\n",
+              r.getPorosities()[1], r.getPorosities()[0], (sig[9] + sig[13] + sig[17]) / 3, (sig[0] + sig[4] + sig[8]) / 3);
+  EXPECT_GT(r.getPorosities()[1], r.getPorosities()[0]);
+  // Bad params name the scene file, line and key.
+  auto refused = [](const std::string& yaml) {
+    DemSolver bad;
+    try {
+      setupWorker(bad, yaml);
+    } catch (const wire::SolverError& e) {
+      EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string file = (dir_ / "cell.ckpt").string();
+  EXPECT_NE(refused(workerScene(file, ", tolerence: 0.01")).find("cells.yaml:6: params.unit_cells: unknown key 'tolerence'"),
+            std::string::npos);
+  EXPECT_NE(refused(workerScene(file, ", max_steps: 0")).find("unit_cells.max_steps: must be at least 1"), std::string::npos);
+  EXPECT_NE(refused(workerScene((dir_ / "missing.ckpt").string(), "")).find("unit_cells.file"), std::string::npos);
+  EXPECT_NE(refused(workerScene(file, ", weakened: {file: " + file + ", ids: [9]}")).find("cell id 9"), std::string::npos);
+  // A worker holds only cells: other params keys are refused.
+  EXPECT_NE(refused(workerScene(file, "}\n      gravity: [0, 0, 0]\n      x: {a: 1")).find("unknown key 'gravity'"),
+            std::string::npos);
+}
+
+TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
+  const std::string yaml = workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 50000");
+  DemSolver a;
+  setupWorker(a, yaml);
+  Exchange first;
+  // Different histories per cell: compression in cell 0, shear in cell 1.
+  std::vector<double> inc = isotropic(-5e-5);
+  const std::vector<double> shear{0, 2e-4, 0, 2e-4, 0, 0, 0, 0, 0};
+  inc.insert(inc.end(), shear.begin(), shear.end());
+  first.run(a, {0, 1}, inc);
+  const std::string ckpt = (dir_ / "worker.ckpt").string();
+  ASSERT_GT(a.checkpoint(ckpt), 0u);
+  const std::vector<double> next{0, 0, 1e-4, 0, 0, 0, 1e-4, 0, -5e-5, 1e-4, 0, 0, 0, -1e-4, 0, 0, 0, 0};
+  Exchange ra, rb;
+  const auto expected = ra.run(a, {0, 1}, next);
+  DemSolver b;
+  b.restore(ckpt);
+  ASSERT_NE(b.unitCells(), nullptr);
+  EXPECT_EQ(b.time(), a.time() - 1e-6);
+  const auto got = rb.run(b, {0, 1}, next);
+  const auto se = wire::view(expected.getStresses()), sg = wire::view(got.getStresses());
+  ASSERT_EQ(se.size(), 18u);
+  ASSERT_EQ(sg.size(), 18u);
+  for (std::size_t k = 0; k < 18; ++k) EXPECT_EQ(se[k], sg[k]) << k;
+  for (unsigned c = 0; c < 2; ++c) {
+    EXPECT_EQ(expected.getRelaxationSteps()[c], got.getRelaxationSteps()[c]);
+    EXPECT_EQ(expected.getPorosities()[c], got.getPorosities()[c]);
+    EXPECT_EQ(expected.getCoordinationNumbers()[c], got.getCoordinationNumbers()[c]);
+  }
+  // The two cells were driven differently, so their states differ.
+  EXPECT_NE(se[1], sg[10]);
+  std::printf("restored worker: cell 0 sigma_33 %.6g Pa (%u steps), cell 1 sigma_12 %.6g Pa (%u steps)\n", sg[8],
+              got.getRelaxationSteps()[0], sg[10], got.getRelaxationSteps()[1]);
+}
+
+}  // namespace
+}  // namespace cosim::dem
