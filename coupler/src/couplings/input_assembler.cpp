@@ -25,6 +25,8 @@ std::size_t InputAssembler::words() const {
     w += m.positions.size() + m.velocities.size() + m.triangles.size() / 2 + 16 + m.surface.size() / 8;
   for (const auto& f : forces_) w += f.forces.size() + f.ids.size() / 2 + 12 + f.zone.size() / 8;
   w += 16 * profiles_.size();
+  for (const auto& j : jobs_) w += j.strainIncrements.size() + j.cellIds.size() / 2 + 16;
+  for (const auto& r : results_) w += r.stresses.size() + 4 * r.cellIds.size() + 32;
   return w;
 }
 
@@ -33,6 +35,8 @@ void InputAssembler::clear() {
   meshes_.clear();
   forces_.clear();
   profiles_.clear();
+  jobs_.clear();
+  results_.clear();
 }
 
 void InputAssembler::build(proto::CouplingData::Builder data) {
@@ -72,7 +76,34 @@ void InputAssembler::build(proto::CouplingData::Builder data) {
       list[i].setEnd(profiles_[i].end);
     }
   }
+  buildUnitCells(data);
   clear();
+}
+
+void InputAssembler::buildUnitCells(proto::CouplingData::Builder data) const {
+  if (!jobs_.empty()) {
+    auto list = data.initUnitCellJobs(static_cast<unsigned>(jobs_.size()));
+    for (unsigned i = 0; i < jobs_.size(); ++i) {
+      copyInto(list[i].initCellIds(static_cast<unsigned>(jobs_[i].cellIds.size())), jobs_[i].cellIds);
+      copyInto(list[i].initStrainIncrements(static_cast<unsigned>(jobs_[i].strainIncrements.size())),
+               jobs_[i].strainIncrements);
+      list[i].setDt(jobs_[i].dt);
+    }
+  }
+  if (!results_.empty()) {
+    auto list = data.initUnitCellResults(static_cast<unsigned>(results_.size()));
+    for (unsigned i = 0; i < results_.size(); ++i) {
+      const auto& r = results_[i];
+      auto out = list[i];
+      copyInto(out.initCellIds(static_cast<unsigned>(r.cellIds.size())), r.cellIds);
+      copyInto(out.initStresses(static_cast<unsigned>(r.stresses.size())), r.stresses);
+      copyInto(out.initPorosities(static_cast<unsigned>(r.porosities.size())), r.porosities);
+      copyInto(out.initCoordinationNumbers(static_cast<unsigned>(r.coordinationNumbers.size())), r.coordinationNumbers);
+      copyInto(out.initUnbalancedForceIndices(static_cast<unsigned>(r.unbalancedForceIndices.size())),
+               r.unbalancedForceIndices);
+      copyInto(out.initRelaxationSteps(static_cast<unsigned>(r.relaxationSteps.size())), r.relaxationSteps);
+    }
+  }
 }
 
 }  // namespace cosim::coupler

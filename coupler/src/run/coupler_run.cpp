@@ -88,7 +88,10 @@ class CouplerRun final : public ExchangeDriver {
       finish("interrupted", e.what(), kExitInterrupted);
     } catch (const wire::PeerFault& e) {
       faulty_.insert(e.peer());
-      finish(report_.status == "running" ? "failed" : "refused", e.what(),
+      std::string message = e.what();
+      for (const auto& c : scene_.couplings)
+        if (const auto loss = c->describeLoss(e.peer()); !loss.empty()) message += "; " + loss;
+      finish(report_.status == "running" ? "failed" : "refused", message,
              report_.status == "running" ? kExitPeerFault : kExitRefused);
     } catch (const std::exception& e) {
       finish("failed", e.what(), report_.status == "running" ? kExitPeerFault : kExitFailure);

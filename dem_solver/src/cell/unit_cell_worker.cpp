@@ -159,6 +159,25 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
   if (!failures.empty()) throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
 }
 
+void UnitCellWorker::report(proto::CouplingData::Builder outputs) const {
+  auto r = outputs.initUnitCellResults(1)[0];
+  const auto n = static_cast<unsigned>(ids_.size());
+  auto outIds = wire::view(r.initCellIds(n));
+  auto stress = wire::view(r.initStresses(9 * n));
+  auto porosity = wire::view(r.initPorosities(n));
+  auto coordination = wire::view(r.initCoordinationNumbers(n));
+  auto index = wire::view(r.initUnbalancedForceIndices(n));
+  r.initRelaxationSteps(n);
+  for (unsigned k = 0; k < n; ++k) {
+    const CellMeasures m = measureCell(*cells_[k]);
+    outIds[k] = ids_[k];
+    for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = m.stress[c];
+    porosity[k] = m.porosity;
+    coordination[k] = m.coordination;
+    index[k] = m.unbalancedForceIndex;
+  }
+}
+
 std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {
   std::ofstream out(path, std::ios::binary);
   if (!out) throw std::runtime_error(path + ": cannot open checkpoint for writing");

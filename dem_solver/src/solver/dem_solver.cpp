@@ -61,6 +61,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
     if (params["unit_cells"]) {  // GMH worker: answers unitCellJobs only
       cells_ = UnitCellWorker::fromParams(params, sceneFile_);
+      cells_->report(outputs);
       ready_ = true;
       return;
     }

@@ -51,7 +51,20 @@ class InputAssembler {
     std::uint8_t axis = 0;
     double start = 0.0, end = 0.0;
   };
+  struct StagedUnitCellJobs {  // a UnitCellJobs (gmh.capnp)
+    std::span<const std::uint32_t> cellIds;
+    std::span<const double> strainIncrements;  // 9 per cell
+    double dt = 0.0;
+  };
+  struct StagedUnitCellResults {  // a UnitCellResults (gmh.capnp)
+    std::span<const std::uint32_t> cellIds;
+    std::span<const double> stresses;  // 9 per cell
+    std::span<const double> porosities, coordinationNumbers, unbalancedForceIndices;
+    std::span<const std::uint32_t> relaxationSteps;
+  };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
+  void stageUnitCellJobs(StagedUnitCellJobs jobs) { jobs_.push_back(jobs); }
+  void stageUnitCellResults(StagedUnitCellResults results) { results_.push_back(results); }
   void stageMesh(StagedMesh mesh) { meshes_.push_back(std::move(mesh)); }
   void stageForces(StagedForces forces) { forces_.push_back(std::move(forces)); }
   void stageWeightProfile(StagedWeightProfile profile) { profiles_.push_back(std::move(profile)); }
@@ -64,10 +77,13 @@ class InputAssembler {
   void clear();
 
  private:
+  void buildUnitCells(proto::CouplingData::Builder data) const;
   std::vector<StagedArray> arrays_;
   std::vector<StagedMesh> meshes_;
   std::vector<StagedForces> forces_;
   std::vector<StagedWeightProfile> profiles_;
+  std::vector<StagedUnitCellJobs> jobs_;
+  std::vector<StagedUnitCellResults> results_;
 };
 
 struct ExchangeContext {
@@ -100,6 +116,9 @@ class Coupling {
   virtual void stageSetup(std::map<std::string, InputAssembler>& /*inputs*/) const {}
   /// Maps outputs to inputs; records what it wants under /series/<name>.
   virtual void exchange(ExchangeContext& context) = 0;
+  /// What the run loses with a participant that died or hung (e.g. the unit
+  /// cells a worker held), for the message that stops the run; empty if nothing.
+  virtual std::string describeLoss(const std::string& /*solver*/) const { return {}; }
 
  private:
   std::string name_;

@@ -39,6 +39,9 @@ class UnitCellWorker {
   static std::unique_ptr<UnitCellWorker> fromParams(const YAML::Node& params, const std::string& sceneFile);
   /// Answers every UnitCellJobs list in inputs with a UnitCellResults list in outputs.
   void answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs);
+  /// The state of every cell it holds, without a job: its setup reply, which
+  /// tells the coupler the cell ids this worker owns and their initial stresses.
+  void report(proto::CouplingData::Builder outputs) const;
   /// All cells with their full states and the settings, in one file.
   std::uint64_t checkpoint(const std::string& path) const;
   /// nullptr when the file is not a worker checkpoint (a plain dem checkpoint).

@@ -1,0 +1,209 @@
+// gmh: hierarchical FEM x DEM (Liu 2016 Sec. 2.3, Fig. 3; DESIGN.md 6.2). FEM
+// (external material, explicit) sends one unit-cell job per quadrature point
+// each coarse step: the corotational strain increment (Eq. 60). A pool of
+// dem_solver workers holds the cells, each cell on one worker for the whole
+// run (sticky: a cell's state lives where it was loaded; the workers announce
+// their cells in their setup replies). The coupling splits the jobs by owner,
+// the workers run them at the same time, and it gathers their corotational
+// Cauchy stresses (Eq. 44b) with porosity, coordination number, unbalanced-
+// force index (Eq. 57) and relaxation steps into one result list for FEM.
+// Pair it with `schedule: {kind: multirate, fine: [workers...], ratio: 1,
+// order: coarse-first}`: FEM predicts, then the workers answer.
+#include <algorithm>
+#include <map>
+#include <ostream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+/// One worker's share of a step: the jobs it gets.
+struct WorkerJobs {
+  std::vector<std::uint32_t> ids;
+  std::vector<double> increments;
+};
+
+/// The gathered results of every cell, in the order FEM's jobs named them.
+struct GatheredResults {
+  std::vector<std::uint32_t> ids, steps;
+  std::vector<double> stresses, porosities, coordination, indices;
+  void resize(std::size_t n) {
+    ids.resize(n), steps.resize(n), stresses.resize(9 * n), porosities.resize(n), coordination.resize(n),
+        indices.resize(n);
+  }
+};
+
+class GmhCoupling final : public Coupling {
+ public:
+  GmhCoupling(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) : Coupling(name) {
+    fem_ = requireSolverName(m, "fem", solvers);
+    const bool given = m.has("workers");
+    for (const auto& w : m.stringList("workers")) {
+      bool declared = false;
+      for (const auto& s : solvers) declared = declared || s.name == w;
+      if (!declared) m.error("workers", "'" + w + "' is not a solver declared under solvers");
+      if (w == fem_) m.error("workers", "'" + w + "' is the FEM solver");
+      workers_.push_back(w);
+    }
+    if (workers_.empty()) m.error("workers", given ? "is empty" : "missing: the dem_solver workers that hold the unit cells");
+  }
+
+  std::string kind() const override { return "gmh"; }
+  std::vector<std::string> participants() const override {
+    std::vector<std::string> p{fem_};
+    p.insert(p.end(), workers_.begin(), workers_.end());
+    return p;
+  }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == fem_) return {"advance"};
+    return {"unit-cells"};
+  }
+  void describe(std::ostream& out) const override {
+    out << fem_ << " unit-cell jobs -> " << workers_.size() << " worker(s):";
+    for (const auto& w : workers_) out << " " << w;
+    out << " (each cell stays on the worker that loaded it)";
+  }
+
+  std::string describeLoss(const std::string& solver) const override {
+    auto it = cellsOf_.find(solver);
+    if (it == cellsOf_.end() || it->second.empty()) return {};
+    const auto& ids = it->second;
+    std::string list;
+    for (std::size_t k = 0; k < ids.size() && k < 20; ++k) list += (k ? ", " : "") + std::to_string(ids[k]);
+    if (ids.size() > 20) list += ", ... (" + std::to_string(ids.size()) + " cells)";
+    return "worker '" + solver + "' held unit cells " + list + "; restart from a checkpoint to move them";
+  }
+
+  void exchange(ExchangeContext& ctx) override {
+    if (ctx.exchange == 0) learnOwners(ctx);
+    if (ctx.isNew(fem_) && ctx.outputs.count(fem_)) dispatch(ctx);
+    // At setup this gathers the prepared cells' stresses: FEM's initial stresses (the confinement).
+    if (std::any_of(workers_.begin(), workers_.end(), [&](const std::string& w) { return ctx.isNew(w); })) gather(ctx);
+    if (!gathered_.ids.empty())
+      ctx.inputs[fem_].stageUnitCellResults({gathered_.ids, gathered_.stresses, gathered_.porosities,
+                                             gathered_.coordination, gathered_.indices, gathered_.steps});
+  }
+
+ private:
+  void learnOwners(const ExchangeContext& ctx) {
+    owner_.clear();
+    for (const auto& w : workers_) {
+      auto out = ctx.outputs.find(w);
+      if (out == ctx.outputs.end()) continue;
+      auto& held = cellsOf_[w];
+      held.clear();
+      for (auto r : out->second.getUnitCellResults())
+        for (std::uint32_t id : wire::view(r.getCellIds())) {
+          auto [it, fresh] = owner_.emplace(id, w);
+          if (!fresh)
+            throw std::runtime_error("coupling '" + name() + "': unit cell " + std::to_string(id) + " is held by both '" +
+                                     it->second + "' and '" + w + "' (give the workers disjoint first_id/count)");
+          held.push_back(id);
+        }
+      if (held.empty())
+        throw std::runtime_error("coupling '" + name() + "': worker '" + w + "' announced no unit cells at setup");
+    }
+  }
+
+  void dispatch(ExchangeContext& ctx) {
+    for (auto& [w, jobs] : jobs_) jobs.ids.clear(), jobs.increments.clear();
+    double dt = 0.0;
+    std::size_t count = 0;
+    for (auto list : ctx.outputs.at(fem_).getUnitCellJobs()) {
+      const auto ids = wire::view(list.getCellIds());
+      const auto inc = wire::view(list.getStrainIncrements());
+      dt = list.getDt();
+      for (std::size_t k = 0; k < ids.size(); ++k) {
+        auto owner = owner_.find(ids[k]);
+        if (owner == owner_.end())
+          throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) +
+                                   ": FEM sent a job for unit cell " + std::to_string(ids[k]) +
+                                   ", which no worker holds (" + std::to_string(owner_.size()) + " cells in the pool)");
+        auto& jobs = jobs_[owner->second];
+        jobs.ids.push_back(ids[k]);
+        jobs.increments.insert(jobs.increments.end(), inc.begin() + 9 * static_cast<std::ptrdiff_t>(k),
+                               inc.begin() + 9 * static_cast<std::ptrdiff_t>(k + 1));
+      }
+      count += ids.size();
+    }
+    for (auto& [w, jobs] : jobs_)
+      if (!jobs.ids.empty()) ctx.inputs[w].stageUnitCellJobs({jobs.ids, jobs.increments, dt});
+    if (ctx.series) ctx.series->append(name() + "/jobs", static_cast<double>(count));
+  }
+
+  void gather(ExchangeContext& ctx) {
+    for (const auto& w : workers_)
+      if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
+    gatherFrom(ctx);
+    record(ctx);
+  }
+
+  void gatherFrom(const ExchangeContext& ctx) {
+    gathered_.resize(0);
+    for (const auto& w : workers_) {
+      auto out = ctx.outputs.find(w);
+      if (out == ctx.outputs.end()) continue;
+      for (auto r : out->second.getUnitCellResults()) append(r, w, ctx.exchange);
+    }
+  }
+
+  void append(proto::UnitCellResults::Reader r, const std::string& worker, std::uint64_t exchange) {
+    const auto ids = wire::view(r.getCellIds());
+    const auto stresses = wire::view(r.getStresses());
+    const auto porosities = wire::view(r.getPorosities());
+    const auto coordination = wire::view(r.getCoordinationNumbers());
+    const auto indices = wire::view(r.getUnbalancedForceIndices());
+    const auto steps = wire::view(r.getRelaxationSteps());
+    const std::size_t n = ids.size();
+    if (stresses.size() != 9 * n || porosities.size() != n || coordination.size() != n || indices.size() != n ||
+        steps.size() != n)
+      throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" +
+                               worker + "' sent " + std::to_string(n) + " cell ids with mismatched result arrays");
+    gathered_.ids.insert(gathered_.ids.end(), ids.begin(), ids.end());
+    gathered_.stresses.insert(gathered_.stresses.end(), stresses.begin(), stresses.end());
+    gathered_.porosities.insert(gathered_.porosities.end(), porosities.begin(), porosities.end());
+    gathered_.coordination.insert(gathered_.coordination.end(), coordination.begin(), coordination.end());
+    gathered_.indices.insert(gathered_.indices.end(), indices.begin(), indices.end());
+    gathered_.steps.insert(gathered_.steps.end(), steps.begin(), steps.end());
+  }
+
+  /// Pool statistics per coarse step: what the stability diagnostics look at.
+  void record(const ExchangeContext& ctx) const {
+    if (!ctx.series || gathered_.ids.empty()) return;
+    const auto n = static_cast<double>(gathered_.ids.size());
+    double porosity = 0.0, coordination = 0.0, maxIndex = 0.0, maxSteps = 0.0, pressure = 0.0;
+    for (std::size_t k = 0; k < gathered_.ids.size(); ++k) {
+      const double* sigma = &gathered_.stresses[9 * k];
+      pressure -= (sigma[0] + sigma[4] + sigma[8]) / (3.0 * n);
+      porosity += gathered_.porosities[k] / n;
+      coordination += gathered_.coordination[k] / n;
+      maxIndex = std::max(maxIndex, gathered_.indices[k]);
+      maxSteps = std::max(maxSteps, static_cast<double>(gathered_.steps[k]));
+    }
+    ctx.series->append(name() + "/mean_pressure", pressure);
+    ctx.series->append(name() + "/mean_porosity", porosity);
+    ctx.series->append(name() + "/mean_coordination", coordination);
+    ctx.series->append(name() + "/max_unbalanced_force_index", maxIndex);
+    ctx.series->append(name() + "/max_relaxation_steps", maxSteps);
+  }
+
+  std::string fem_;
+  std::vector<std::string> workers_;
+  std::map<std::uint32_t, std::string> owner_;              // cell id -> worker
+  std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
+  std::map<std::string, WorkerJobs> jobs_;
+  GatheredResults gathered_;
+};
+
+const bool registered = CouplingRegistry::add(
+    "gmh", [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<GmhCoupling>(name, m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

@@ -1,0 +1,116 @@
+// The GMH loop through real processes: fem_solver (external material, one
+// point per element, explicit) sends one unit-cell job per element each
+// coarse step; two dem_solver workers each hold one prepared 100-sphere cell
+// (dem_prepare_cell, 416 kPa); the gmh coupling splits the jobs by owner and
+// gathers the stresses. Compressing the block raises the cells' pressure; a
+// worker killed mid-run stops the run with a message naming its cells.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "cosim/io/h5_file.hpp"
+#include "subprocess.hpp"
+
+namespace cosim::testing {
+namespace {
+namespace fs = std::filesystem;
+
+class GmhRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    cellDir_ = freshDirectory("gmh-cell");
+    const auto f = run({binary("dem_prepare_cell"), "--out", (cellDir_ / "cell").string(), "--count", "100", "--seed", "3"},
+                       120.0);
+    ASSERT_EQ(f.code, 0) << f.out << f.err;
+  }
+  static void TearDownTestSuite() { fs::remove_all(cellDir_); }
+
+  void SetUp() override { dir_ = freshDirectory("gmh-run"); }
+  void TearDown() override {
+    EXPECT_TRUE(processesMentioning(dir_.string()).empty()) << "processes left behind";
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  std::string scene(int coarseSteps, const std::string& secondFirstId = "1") const {
+    const auto path = dir_ / "gmh.yaml";
+    const std::string cell = (cellDir_ / "cell.ckpt").string();
+    std::ofstream(path) << "scene: gmh-two-cells\n"
+                        << "schedule: {kind: multirate, fine: [cells_a, cells_b], dt: 2.0e-5, ratio: 1, "
+                        << "order: coarse-first, coarse_steps: " << coarseSteps << "}\n"
+                        << R"(solvers:
+  - name: block
+    kind: fem
+    params:
+      mesh: {box: {min: [0, 0, 0], max: [0.02, 0.01, 0.01], divisions: [2, 1, 1]}}
+      material: {model: external, E: 1.0e8, nu: 0.2, density: 1600}
+      formulation: one-point
+      sets:
+        everything: {box: {min: [-1, -1, -1], max: [1, 1, 1]}}
+        bottom: {box: {min: [-1, -1, -0.0001], max: [1, 1, 0.0001]}}
+        top: {box: {min: [-1, -1, 0.0099], max: [1, 1, 0.0101]}}
+      boundary:
+        - {set: everything, dofs: [x, y], value: 0.0}
+        - {set: bottom, dofs: [z], value: 0.0}
+        - {set: top, dofs: [z], value: -1.0e-3, kind: velocity}
+      integrator: {type: central-difference}
+  - name: cells_a
+    kind: dem
+    params:
+      unit_cells: {file: )" << cell << R"(, first_id: 0, count: 1, max_steps: 20000, load_steps: 20}
+  - name: cells_b
+    kind: dem
+    params:
+      unit_cells: {file: )" << cell << ", first_id: " << secondFirstId << R"(, count: 1, max_steps: 20000, load_steps: 20}
+couplings:
+  - {name: cells, kind: gmh, fem: block, workers: [cells_a, cells_b]}
+output: {dir: )" << (dir_ / "run").string() << "}\n";
+    return path.string();
+  }
+
+  static inline fs::path cellDir_;
+  fs::path dir_;
+};
+
+TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
+  const auto f = run({binary("coupler"), "run", scene(20), "--no-progress"}, 120.0);
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  auto h5 = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
+  const auto pressure = h5.readArray("/series/cells/mean_pressure");
+  const auto jobs = h5.readArray("/series/cells/jobs");
+  ASSERT_EQ(pressure.size(), 21u);  // the prepared cells at setup, then one gather per coarse step
+  EXPECT_NEAR(pressure.front(), 416e3, 0.02 * 416e3);
+  for (std::size_t k = 1; k < pressure.size(); ++k) EXPECT_GT(pressure[k], pressure[k - 1]) << "step " << k;
+  // 20 steps of 1e-3 m/s on 0.01 m: 4e-5 axial strain raises the mean stress by
+  // (K + 4G/3) 4e-5 / 3, between 2 and 30 kPa for any plausible packing.
+  EXPECT_GT(pressure.back() - pressure.front(), 2e3);
+  EXPECT_LT(pressure.back() - pressure.front(), 30e3);
+  for (std::size_t k = 1; k < jobs.size(); ++k) EXPECT_EQ(jobs[k], 2.0);
+}
+
+TEST_F(GmhRun, OverlappingWorkersAreRefused) {
+  const auto f = run({binary("coupler"), "run", scene(5, "0"), "--no-progress"}, 60.0);
+  EXPECT_NE(f.code, 0);
+  EXPECT_NE(f.err.find("unit cell 0 is held by both 'cells_a' and 'cells_b'"), std::string::npos) << f.err;
+}
+
+TEST_F(GmhRun, ALostWorkerStopsTheRunNamingItsCells) {
+  Subprocess coupler({binary("coupler"), "run", scene(1000000), "--no-progress"});
+  // Wait until the pool is running, then kill one worker.
+  pid_t victim = -1;
+  for (int i = 0; i < 200 && victim < 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    for (pid_t p : processesMentioning("--name cells_b")) victim = p;
+  }
+  ASSERT_GT(victim, 0) << "worker cells_b never started";
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ::kill(victim, SIGKILL);
+  const int code = coupler.wait(60.0);
+  EXPECT_EQ(code, 4) << coupler.err();
+  EXPECT_NE(coupler.err().find("worker 'cells_b' held unit cells 1"), std::string::npos) << coupler.err();
+}
+
+}  // namespace
+}  // namespace cosim::testing
