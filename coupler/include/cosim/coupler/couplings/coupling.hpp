@@ -50,10 +50,22 @@ class InputAssembler {
     std::uint8_t axis = 0;
     double start = 0.0, end = 0.0;
   };
+  struct StagedHybridParticles {  // a HybridParticles (pddem.capnp)
+    std::span<const std::uint32_t> ids, bodyIds;
+    std::span<const double> referencePositions, positions, velocities, radii, horizons;
+  };
+  struct StagedHybridForces {  // a HybridForces (pddem.capnp)
+    std::span<const std::uint32_t> ids;
+    std::span<const double> forces;  // 3 per id
+  };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
   void stageMesh(StagedMesh mesh) { meshes_.push_back(std::move(mesh)); }
   void stageForces(StagedForces forces) { forces_.push_back(std::move(forces)); }
   void stageWeightProfile(StagedWeightProfile profile) { profiles_.push_back(std::move(profile)); }
+  void stageHybridParticles(StagedHybridParticles hybrid) { hybridParticles_.push_back(hybrid); }
+  void stageHybridForces(StagedHybridForces forces) { hybridForces_.push_back(forces); }
+  const std::vector<StagedHybridParticles>& hybridParticles() const { return hybridParticles_; }
+  const std::vector<StagedHybridForces>& hybridForces() const { return hybridForces_; }
   const std::vector<StagedArray>& arrays() const { return arrays_; }
   const std::vector<StagedMesh>& meshes() const { return meshes_; }
   const std::vector<StagedForces>& forces() const { return forces_; }
@@ -67,6 +79,9 @@ class InputAssembler {
   std::vector<StagedMesh> meshes_;
   std::vector<StagedForces> forces_;
   std::vector<StagedWeightProfile> profiles_;
+  std::vector<StagedHybridParticles> hybridParticles_;
+  std::vector<StagedHybridForces> hybridForces_;
+  void buildHybrid(proto::CouplingData::Builder data) const;
 };
 
 struct ExchangeContext {
