@@ -114,5 +114,29 @@ TEST(PdDemContactRun, CheckRefusesAMissingSolverName) {
   EXPECT_NE((done.out + done.err).find("bad.yaml:"), std::string::npos) << done.out << done.err;
 }
 
+TEST(PdDemContactRun, HeldKinematicsRunsAndAnUnknownModeIsRefused) {
+  PdDemRun r;
+  std::ifstream in(sourcePath("tests/coupling/pd_dem_short.yaml"));
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string s = text.str();
+  const auto at = s.find("dem: spheres}");
+  std::string held = s, bad = s;
+  held.replace(at, 13, "dem: spheres, kinematics: held}");
+  bad.replace(at, 13, "dem: spheres, kinematics: frozen}");
+  std::ofstream(r.dir / "held.yaml") << held;
+  std::ofstream(r.dir / "bad.yaml") << bad;
+  const auto refused = run({binary("coupler"), "check", (r.dir / "bad.yaml").string()}, 30.0);
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE((refused.out + refused.err).find("kinematics"), std::string::npos) << refused.out << refused.err;
+  const auto done = run({binary("coupler"), "run", (r.dir / "held.yaml").string(), "--out", (r.dir / "run").string(),
+                         "--no-progress"},
+                        50.0);
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  // The sphere moves 0.1 m/s; hybrid particles barely move: the forces differ little from extrapolated ones.
+  EXPECT_LT(r.report()["figures"]["action_reaction_residual"].get<double>(), 1e-12);
+  checkBalance(r);
+}
+
 }  // namespace
 }  // namespace cosim::testing

@@ -13,6 +13,13 @@
 // sees the other's state at the interval's start); multirate with
 // order: fine-first / coarse-first gives the staggered updates of Eq. 46-47
 // (docs/pd_dem_coupling.md).
+//
+// Hybrid kinematics over a DEM interval (key `kinematics`):
+//   extrapolated: DEM moves the hybrid spheres with PD's velocities (default);
+//   held:         DEM keeps them at PD's positions (zero velocity sent). When
+//                 DEM takes one step over several PD steps, extrapolating PD's
+//                 surface velocity (which carries its fastest modes) over the
+//                 whole interval can feed energy back into them.
 #include <ostream>
 #include <stdexcept>
 
@@ -32,6 +39,10 @@ class PdDemContact final : public Coupling {
     pd_ = requireSolverName(m, "pd", solvers);
     dem_ = requireSolverName(m, "dem", solvers);
     if (!pd_.empty() && pd_ == dem_) m.error("dem", "pd and dem must name two different solvers");
+    const std::string kinematics = m.string("kinematics", "extrapolated");
+    if (kinematics != "extrapolated" && kinematics != "held")
+      m.error("kinematics", "must be extrapolated or held, got '" + kinematics + "'");
+    held_ = kinematics == "held";
   }
 
   std::string kind() const override { return "pd-dem-contact"; }
@@ -41,7 +52,8 @@ class PdDemContact final : public Coupling {
   }
   void describe(std::ostream& out) const override {
     out << pd_ << " hybrid surface particles (Eq. 39) -> " << dem_ << " driven spheres; " << dem_
-        << " contact forces -> " << pd_ << " (Hartmann 2022 Sec. 3)";
+        << " contact forces -> " << pd_ << " (Hartmann 2022 Sec. 3), hybrid kinematics "
+        << (held_ ? "held" : "extrapolated");
   }
 
   void exchange(ExchangeContext& ctx) override {
@@ -53,15 +65,20 @@ class PdDemContact final : public Coupling {
   }
 
  private:
-  void stageParticles(proto::CouplingData::Reader pd, ExchangeContext& ctx) const {
+  void stageParticles(proto::CouplingData::Reader pd, ExchangeContext& ctx) {
     if (!pd.hasHybridParticles() || pd.getHybridParticles().size() == 0)
       throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent no hybrid particles at exchange " +
                                std::to_string(ctx.exchange) + " (is params.hybrid false?)");
-    for (auto h : pd.getHybridParticles())
+    for (auto h : pd.getHybridParticles()) {
+      std::span<const double> velocities = wire::view(h.getVelocities());
+      if (held_) {
+        zeros_.assign(velocities.size(), 0.0);
+        velocities = zeros_;
+      }
       ctx.inputs[dem_].stageHybridParticles(
           {wire::view(h.getIds()), wire::view(h.getBodyIds()), wire::view(h.getReferencePositions()),
-           wire::view(h.getPositions()), wire::view(h.getVelocities()), wire::view(h.getRadii()),
-           wire::view(h.getHorizons())});
+           wire::view(h.getPositions()), velocities, wire::view(h.getRadii()), wire::view(h.getHorizons())});
+    }
   }
 
   void stageForces(proto::CouplingData::Reader dem, ExchangeContext& ctx) const {
@@ -90,6 +107,8 @@ class PdDemContact final : public Coupling {
   }
 
   std::string pd_, dem_;
+  bool held_ = false;
+  std::vector<double> zeros_;  // velocities staged with held kinematics
 };
 
 const bool registered = CouplingRegistry::add(
