@@ -4,8 +4,9 @@
 // reference position, horizon); DEM treats them as driven spheres, finds
 // DEM-hybrid and hybrid-hybrid contacts (pairs of one PD family excluded) and
 // returns the mean contact force on every hybrid particle over its interval;
-// PD adds that force to the particles' external force (Eq. 40, the extracted
-// text garbles the sum: f_I^ext = sum over the contacts c of I of F_c).
+// PD adds it as f^Coupling in f = f^PD + f^DEM + f^Coupling + m b (Eq. 40),
+// f^Coupling of a hybrid particle being the sum of its contact (and wall)
+// forces. Its body force m b stays in PD (counted once, Sec. 3.2).
 //
 // Each exchange stages PD's latest hybrid states to DEM and DEM's latest
 // hybrid forces to PD. Which states and forces are "latest" is the schedule's
