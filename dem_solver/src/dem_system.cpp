@@ -55,10 +55,10 @@ void DemSystem::initialize() {
     m.validate();
     m.history.resize(n);
   }
-  if (bonds.size() > 0) {
-    bonds.index(n);
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs(bonds.size());
-    for (std::size_t b = 0; b < bonds.size(); ++b) pairs[b] = {bonds.first[b], bonds.second[b]};
+  if (bonds.size() > 0 || !excludedPairs.empty()) {
+    if (bonds.size() > 0) bonds.index(n);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs(excludedPairs);
+    for (std::size_t b = 0; b < bonds.size(); ++b) pairs.emplace_back(bonds.first[b], bonds.second[b]);
     neighbors.setExclusions(n, pairs);
   }
   neighbors.rowStart.clear();  // force a fresh build
@@ -74,6 +74,10 @@ void DemSystem::advance(double dt) {
     for (Vec3& x : particles.x) x += dt * mul(L, x);
   }
   integrator_->beforeForces(particles, dt);
+  // Driven particles (coupled hybrid PD particles, scene-driven spheres) are
+  // not integrated; between the states sent from outside they move with their velocity.
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.driven[i]) particles.x[i] += dt * particles.v[i];
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
     for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
@@ -240,7 +244,9 @@ void DemSystem::gatherForces(double dt) {
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
       const double w = p.weight[i];
-      Vec3 f = (w * p.mass[i]) * gravity + p.fExt[i];  // Cheng 2022 Eq. 26: w scales body force
+      // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
+      // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
+      Vec3 f = p.driven[i] ? p.fExt[i] : (w * p.mass[i]) * gravity + p.fExt[i];
       Vec3 t{};
       {
         // The row side was summed in the pair loop. Pairs out of contact hold
@@ -368,7 +374,7 @@ void DemSystem::gatherForces(double dt) {
         }
         meshCount[i * nm + g] = static_cast<std::uint8_t>(kept.size());
       }
-      if (massDamping > 0.0) {
+      if (massDamping > 0.0 && !p.driven[i]) {
         // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
         const Vec3 fd = (-massDamping * w * p.mass[i]) * p.v[i];
         const Vec3 td = (-massDamping * w * p.inertia[i]) * p.omega[i];

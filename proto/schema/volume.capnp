@@ -12,6 +12,7 @@ struct ParticleStates {
   displacements @4 :List(Float64);   # 3 per particle, from the reference configuration
   masses @5 :List(Float64);
   radii @6 :List(Float64);
+  forces @7 :List(Float64);          # 3 per particle: mean total force over the last interval (DEM)
 }
 
 struct NodalField {

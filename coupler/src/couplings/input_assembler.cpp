@@ -27,6 +27,10 @@ std::size_t InputAssembler::words() const {
   w += 16 * profiles_.size();
   for (const auto& j : jobs_) w += j.strainIncrements.size() + j.cellIds.size() / 2 + 16;
   for (const auto& r : results_) w += r.stresses.size() + 4 * r.cellIds.size() + 32;
+  for (const auto& h : hybridParticles_)
+    w += h.ids.size() + h.referencePositions.size() + h.positions.size() + h.velocities.size() + h.radii.size() +
+         h.horizons.size() + 32;
+  for (const auto& h : hybridForces_) w += h.ids.size() / 2 + h.forces.size() + 12;
   return w;
 }
 
@@ -37,6 +41,32 @@ void InputAssembler::clear() {
   profiles_.clear();
   jobs_.clear();
   results_.clear();
+  hybridParticles_.clear();
+  hybridForces_.clear();
+}
+
+void InputAssembler::buildHybrid(proto::CouplingData::Builder data) const {
+  if (!hybridParticles_.empty()) {
+    auto list = data.initHybridParticles(static_cast<unsigned>(hybridParticles_.size()));
+    for (unsigned i = 0; i < hybridParticles_.size(); ++i) {
+      const auto& h = hybridParticles_[i];
+      auto out = list[i];
+      copyInto(out.initIds(static_cast<unsigned>(h.ids.size())), h.ids);
+      copyInto(out.initBodyIds(static_cast<unsigned>(h.bodyIds.size())), h.bodyIds);
+      copyInto(out.initReferencePositions(static_cast<unsigned>(h.referencePositions.size())), h.referencePositions);
+      copyInto(out.initPositions(static_cast<unsigned>(h.positions.size())), h.positions);
+      copyInto(out.initVelocities(static_cast<unsigned>(h.velocities.size())), h.velocities);
+      copyInto(out.initRadii(static_cast<unsigned>(h.radii.size())), h.radii);
+      copyInto(out.initHorizons(static_cast<unsigned>(h.horizons.size())), h.horizons);
+    }
+  }
+  if (!hybridForces_.empty()) {
+    auto list = data.initHybridForces(static_cast<unsigned>(hybridForces_.size()));
+    for (unsigned i = 0; i < hybridForces_.size(); ++i) {
+      copyInto(list[i].initIds(static_cast<unsigned>(hybridForces_[i].ids.size())), hybridForces_[i].ids);
+      copyInto(list[i].initForces(static_cast<unsigned>(hybridForces_[i].forces.size())), hybridForces_[i].forces);
+    }
+  }
 }
 
 void InputAssembler::build(proto::CouplingData::Builder data) {
@@ -77,6 +107,7 @@ void InputAssembler::build(proto::CouplingData::Builder data) {
     }
   }
   buildUnitCells(data);
+  buildHybrid(data);
   clear();
 }
 

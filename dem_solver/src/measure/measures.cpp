@@ -80,6 +80,9 @@ double criticalTimeStep(const DemSystem& s) {
   double dt = std::numeric_limits<double>::max();
   const std::size_t nmat = s.materials.size();
   for (std::size_t i = 0; i < p.size(); ++i) {
+    // A driven particle (a hybrid PD particle, an indenter) is not integrated:
+    // its partners' own terms limit the step. All driven: no limit (0).
+    if (p.driven[i]) continue;
     const std::uint16_t a = p.material[i];
     // Lightest pairing: this particle against an equal one (m* = m/2).
     const double mEff = 0.5 * p.mass[i] * p.weight[i];

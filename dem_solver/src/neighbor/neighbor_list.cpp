@@ -53,15 +53,14 @@ void NeighborList::binParticles(const Particles& p, double cell) {
     }
   // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
   // Cap the cell count near 2N so a sparse, wide cloud cannot exhaust memory.
+  // Counted in double: a runaway particle (an unstable coupled run) must not overflow the int cell index.
   for (;;) {
-    std::size_t total = 1;
-    for (int d = 0; d < 3; ++d) {
-      dims_[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / cell)) + 1);
-      total *= static_cast<std::size_t>(dims_[d]);
-    }
-    if (total <= 2 * n + 64) break;
-    cell *= 1.26;
+    double total = 1.0;
+    for (int d = 0; d < 3; ++d) total *= std::floor((hi[d] - lo[d]) / cell) + 1.0;
+    if (total <= static_cast<double>(2 * n + 64)) break;
+    cell *= total > 1e12 ? std::cbrt(total / static_cast<double>(2 * n + 64)) : 1.26;
   }
+  for (int d = 0; d < 3; ++d) dims_[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / cell)) + 1);
   lo_ = lo;
   cell_ = cell;
   const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];

@@ -44,7 +44,7 @@ wire::SolverInfo DemSolver::info() const {
   i.capabilities = wire::baseCapabilities();
   for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
                         "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots",
-                        "unit-cells"})
+                        "unit-cells", "hybrid-particles"})
     i.capabilities.emplace_back(c);
   return i;
 }
@@ -57,6 +57,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   settings_ = RunSettings{};
   reported_.clear();
   cells_.reset();
+  zoneForceSums_.clear();
   try {
     const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
     if (params["unit_cells"]) {  // GMH worker: answers unitCellJobs only
@@ -73,6 +74,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   } catch (const std::exception& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
   }
+  hybrids_ = HybridSpheres{};
   applyInputs(context.inputs);
   applyWeightProfile(context.inputs);
   selectZoneMembers();
@@ -143,6 +145,7 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
       if (!v.empty()) p.v[ids[k]] = {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
     }
   }
+  applyHybridParticles(inputs);
   // Moving triangle meshes (a coupled FE surface).
   for (auto m : inputs.getMeshes()) {
     const std::string name = m.getSurface().cStr();
@@ -173,6 +176,21 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
     try {
       group->validate();
     } catch (const std::exception& e) {
+      throw SolverError(Code::BAD_INPUT, e.what());
+    }
+  }
+}
+
+void DemSolver::applyHybridParticles(proto::CouplingData::Reader inputs) {
+  // Hybrid PD surface particles (Hartmann 2022 Sec. 3): driven spheres, added at their first exchange.
+  if (!inputs.hasHybridParticles()) return;
+  if (inputs.getHybridParticles().size() > 1)
+    throw SolverError(Code::BAD_INPUT, std::to_string(inputs.getHybridParticles().size()) +
+                                           " hybrid particle sets sent; a DEM solver takes one (one PD solver)");
+  for (auto h : inputs.getHybridParticles()) {
+    try {
+      if (hybrids_.apply(h, system_, settings_.hybridMaterial)) system_.initialize();
+    } catch (const std::invalid_argument& e) {
       throw SolverError(Code::BAD_INPUT, e.what());
     }
   }
@@ -217,12 +235,18 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   if (request.dt != checkedDt_) checkDt(request.dt, "advance (exchange " + std::to_string(request.exchange) + ")");
   applyInputs(request.inputs);
   contactSums_.assign(system_.meshes.size(), {});
+  hybrids_.beginInterval();
+  zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
     system_.advance(request.dt);
     accumulateWallContacts();
+    hybrids_.accumulate(system_.particles);
+    for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
     if (snapshots_ && system_.step % static_cast<std::uint64_t>(settings_.snapshotEvery) == 0) snapshots_->write(system_);
   }
   averageWallContacts(request.steps);
+  hybrids_.endInterval(request.steps);
+  for (Vec3& f : zoneForceSums_) f = (1.0 / request.steps) * f;
   checkFinite();
   fillOutputs(outputs);
 }
@@ -292,6 +316,8 @@ void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
     auto u = wire::view(s.initDisplacements(3 * n));
     auto m = wire::view(s.initMasses(n));
     auto r = wire::view(s.initRadii(n));
+    // The interval's mean force (impulse / interval), as for hybrid particles; after setup the current one.
+    auto f = wire::view(s.initForces(3 * n));
     for (unsigned k = 0; k < n; ++k) {
       const std::uint32_t i = members[k];
       ids[k] = p.id[i];
@@ -302,6 +328,7 @@ void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
         x[c] = p.x[i][d];
         v[c] = p.v[i][d];
         u[c] = p.x[i][d] - referencePositions_[i][d];
+        f[c] = zoneForceSums_.size() == p.size() ? zoneForceSums_[i][d] : p.f[i][d];
       }
     }
   }
@@ -309,6 +336,7 @@ void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
 
 void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
   if (!zoneMembers_.empty()) fillZones(outputs);
+  if (hybrids_.size() > 0) hybrids_.fill(outputs.initHybridForces(1)[0], system_.particles);
   if (system_.meshes.empty()) return;
   auto lists = outputs.initContacts(static_cast<unsigned>(system_.meshes.size()));
   for (std::size_t g = 0; g < system_.meshes.size(); ++g) {
@@ -420,11 +448,18 @@ void DemSolver::restore(const std::string& path) {
     }
     DemSystem restored;
     readCheckpoint(restored, path);
+    // Hybrid spheres keep the indices of this setup; the checkpoint must hold the same particles.
+    if (hybrids_.size() > 0 && restored.particles.size() != system_.particles.size())
+      throw std::runtime_error("checkpoint holds " + std::to_string(restored.particles.size()) +
+                               " particles, this setup with its hybrid PD particles " +
+                               std::to_string(system_.particles.size()));
+    restored.excludedPairs = system_.excludedPairs;
     system_ = std::move(restored);
   } catch (const std::exception& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
   }
   checkedDt_ = 0.0;
+  zoneForceSums_.clear();
   ready_ = true;
 }
 

@@ -123,7 +123,8 @@ void readParticles(const YamlSection& params, DemSystem& system) {
         throw SceneError(s.where("path") + ": " + s.path() + ".path: " + e.what());
       }
     } else {
-      const YamlSection s = src.child("sphere", {"position", "radius", "velocity", "angular_velocity", "material"});
+      const YamlSection s =
+          src.child("sphere", {"position", "radius", "velocity", "angular_velocity", "material", "driven"});
       SphereSet one;
       one.centres.push_back(s.vec3("position"));
       one.radii.push_back(s.positive("radius"));
@@ -131,6 +132,8 @@ void readParticles(const YamlSection& params, DemSystem& system) {
       one.origin.push_back(s.where("position"));
       addSpheres(one, materialOf(s, system), {}, system, s);
       system.particles.omega.back() = s.vec3("angular_velocity", {});
+      // driven: true = moves with its velocity, not integrated (an indenter).
+      system.particles.driven.back() = s.flag("driven", false) ? 1 : 0;
     }
   }
   if (system.particles.size() == 0) params.fail("particles", "no particles were created");
@@ -249,7 +252,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   const YamlSection params(node, sceneFile, "params",
                            {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance",
                             "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds",
-                            "zones"});
+                            "zones", "hybrid"});
   const YamlSection contact = params.child("contact", {"normal", "tangential", "damping"});
   const std::string normal = contact.text("normal", "hertz"), tangential = contact.text("tangential", "mindlin"),
                     damping = contact.text("damping", "restitution");
@@ -311,6 +314,10 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   if (settings.snapshotEvery < 0) snap.fail("every", "must be >= 0");
   settings.snapshotFile = snap.text("file", "");
   readZones(params, settings);
+  // hybrid: {material: name}: the material of hybrid PD particles (Hartmann Sec. 3);
+  // they meet DEM spheres, walls and each other through the scene's contact law.
+  const YamlSection hybrid = params.child("hybrid", {"material"});
+  settings.hybridMaterial = materialOf(hybrid, system);
 }
 
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context) {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cosim/dem/bonds/bonded_spring.hpp"
@@ -42,6 +43,9 @@ class DemSystem {
   double massDamping = 0.0;     // c of the mass damping force -c m v (dynamic relaxation, Liu 2016 Sec. 2.3.2) [1/s]
   double dissipated = 0.0;      // energy lost in dashpots and sliding [J]
   double externalWork = 0.0;    // work of moving walls and external forces [J]
+  // Pairs kept out of the contact law besides bonded ones: hybrid PD particles
+  // of one family (Hartmann 2022 Sec. 3.1). Applied by initialize().
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> excludedPairs;
 
   void setContactLaw(const std::string& normal, const std::string& tangential, const std::string& damping);
   void setIntegrator(const std::string& name);

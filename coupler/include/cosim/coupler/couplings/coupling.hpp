@@ -62,12 +62,24 @@ class InputAssembler {
     std::span<const double> porosities, coordinationNumbers, unbalancedForceIndices;
     std::span<const std::uint32_t> relaxationSteps;
   };
+  struct StagedHybridParticles {  // a HybridParticles (pddem.capnp)
+    std::span<const std::uint32_t> ids, bodyIds;
+    std::span<const double> referencePositions, positions, velocities, radii, horizons;
+  };
+  struct StagedHybridForces {  // a HybridForces (pddem.capnp)
+    std::span<const std::uint32_t> ids;
+    std::span<const double> forces;  // 3 per id
+  };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
   void stageUnitCellJobs(StagedUnitCellJobs jobs) { jobs_.push_back(jobs); }
   void stageUnitCellResults(StagedUnitCellResults results) { results_.push_back(results); }
   void stageMesh(StagedMesh mesh) { meshes_.push_back(std::move(mesh)); }
   void stageForces(StagedForces forces) { forces_.push_back(std::move(forces)); }
   void stageWeightProfile(StagedWeightProfile profile) { profiles_.push_back(std::move(profile)); }
+  void stageHybridParticles(StagedHybridParticles hybrid) { hybridParticles_.push_back(hybrid); }
+  void stageHybridForces(StagedHybridForces forces) { hybridForces_.push_back(forces); }
+  const std::vector<StagedHybridParticles>& hybridParticles() const { return hybridParticles_; }
+  const std::vector<StagedHybridForces>& hybridForces() const { return hybridForces_; }
   const std::vector<StagedArray>& arrays() const { return arrays_; }
   const std::vector<StagedMesh>& meshes() const { return meshes_; }
   const std::vector<StagedForces>& forces() const { return forces_; }
@@ -84,6 +96,9 @@ class InputAssembler {
   std::vector<StagedWeightProfile> profiles_;
   std::vector<StagedUnitCellJobs> jobs_;
   std::vector<StagedUnitCellResults> results_;
+  std::vector<StagedHybridParticles> hybridParticles_;
+  std::vector<StagedHybridForces> hybridForces_;
+  void buildHybrid(proto::CouplingData::Builder data) const;
 };
 
 struct ExchangeContext {

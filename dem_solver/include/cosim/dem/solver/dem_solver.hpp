@@ -7,6 +7,7 @@
 #include "cosim/dem/cell/unit_cell_worker.hpp"
 #include "cosim/dem/dem_system.hpp"
 #include "cosim/dem/io/snapshot_writer.hpp"
+#include "cosim/dem/solver/hybrid_spheres.hpp"
 #include "cosim/dem/solver/scene_params.hpp"
 #include "cosim/wire/solver.hpp"
 
@@ -28,6 +29,7 @@ class DemSolver final : public wire::Solver {
   double criticalDt() const override;
   wire::NamedValues energies() const override;
   std::size_t outputWordsHint() const override { return 2048 + 32 * system_.particles.size(); }
+  const HybridSpheres& hybrids() const { return hybrids_; }
 
   DemSystem& system() { return system_; }
   const RunSettings& settings() const { return settings_; }
@@ -38,6 +40,7 @@ class DemSolver final : public wire::Solver {
   void checkDt(double dt, const std::string& where);
   void applyInputs(proto::CouplingData::Reader inputs);
   void applyWeightProfile(proto::CouplingData::Reader inputs);
+  void applyHybridParticles(proto::CouplingData::Reader inputs);
   void fillOutputs(proto::CouplingData::Builder outputs) const;
   void fillZones(proto::CouplingData::Builder outputs) const;
   void accumulateWallContacts();
@@ -47,11 +50,13 @@ class DemSolver final : public wire::Solver {
   DemSystem system_;
   std::unique_ptr<UnitCellWorker> cells_;  // GMH worker mode (docs/gmh_unit_cells.md)
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
-  std::vector<Vec3> referencePositions_;                 // at setup: displacements are measured from here
+  std::vector<Vec3> referencePositions_;
+  std::vector<Vec3> zoneForceSums_;  // per particle, over the last advance; its mean after the advance                 // at setup: displacements are measured from here
   // Wall contacts summed over the sub-steps of one advance, keyed by (particle, triangle)
   // per wall group; reported as their time average (the impulse over the interval).
   std::vector<std::map<std::pair<std::uint32_t, std::uint32_t>, TriangleContact>> contactSums_;
   std::vector<std::vector<TriangleContact>> reported_;
+  HybridSpheres hybrids_;  // coupled PD surface particles, driven spheres (Hartmann Sec. 3)
   RunSettings settings_;
   std::string sceneFile_, instance_, runDir_;
   std::unique_ptr<SnapshotWriter> snapshots_;

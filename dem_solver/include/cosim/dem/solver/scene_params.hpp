@@ -14,12 +14,13 @@
 //       - {lattice: {origin, spacing, counts, radius, kind, material, velocity}}
 //       - {random: {min, max, radius: [rmin, rmax], count, seed, material}}
 //       - {file: {path, material}}
-//       - {sphere: {position, radius, velocity, material}}
+//       - {sphere: {position, radius, velocity, material, driven}}   # driven: moves with velocity
 //     walls:
 //       - {type: plane, name, point, normal, velocity, mode: fixed|velocity|servo,
 //          stress, area, gain, material}
 //       - {type: mesh, name, vertices: [[x,y,z]...], triangles: [[a,b,c]...], velocity, material}
 //     periodic: {cell: [[a], [b], [c]], velocity_gradient: [[row], [row], [row]]}
+//     hybrid: {material: pd-surface}     # material of coupled hybrid PD particles (default: the first)
 //     mass_damping: 0.0                  # c of -c m v (dynamic relaxation)
 //     snapshots: {every: 1000, file: particles.h5}
 //     zones:                             # particle states sent with every setup/advance reply
@@ -49,6 +50,7 @@ struct RunSettings {
   long snapshotEvery = 0;
   std::string snapshotFile;
   std::vector<ExportZone> zones;
+  std::uint16_t hybridMaterial = 0;  // material of hybrid PD particles (params.hybrid.material)
 };
 
 /// Finds the `solvers:` entry named instance in the scene text; throws SceneError.

@@ -1,0 +1,198 @@
+// hertz-indentation: scene H1's reference (Hartmann 2022 Sec. 4.1). A rigid
+// sphere of radius R driven into an elastic half-space (the PD block) to the
+// depth d: Hertz theory gives the normal force
+//   F_H(d) = 4/3 E* sqrt(R) d^(3/2),  E* = E / (1 - nu^2)   (rigid indenter)
+// with E, nu of the half-space. The depth is measured from first contact:
+// d = z_c - (z_sphere - R), z_c the sphere's bottom midway between the last
+// exchange without force and the first with. (The highest top z + R_h of the
+// hybrid particles is also reported: on a lattice the sphere first touches
+// below it, between the particles.) The force on the sphere
+// is the z component of the interval mean DEM reports for it (zone `zone`);
+// the force on PD's surface is the sum of the hybrid forces. Figures: F and
+// F_H averaged over the exchanges within +-window/2 of each target depth and
+// their relative error; the largest |sum hybrid + sphere force| relative to
+// the largest sphere force (action = reaction). The run ends past the last
+// target depth.
+#include <algorithm>
+#include <cmath>
+#include <ostream>
+#include <sstream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/reference.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+class HertzIndentation final : public Reference {
+ public:
+  HertzIndentation(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+    pd_ = requireSolverName(m, "pd", solvers);
+    dem_ = requireSolverName(m, "dem", solvers);
+    zone_ = m.string("zone", "indenter");
+    const double young = m.requireNumber("young", config::Range::positive());
+    const double poisson = m.requireNumber("poisson", config::Range::positive());
+    if (poisson >= 0.5) m.error("poisson", "must be below 0.5");
+    eStar_ = young / (1.0 - poisson * poisson);
+    window_ = m.number("window", 5e-4);
+    if (window_ < 0.0) m.error("window", "must be >= 0");
+    depths_ = {0.002, 0.005, 0.010};
+    if (m.has("depths")) {
+      const YAML::Node d = m.node("depths");
+      if (!d.IsSequence() || d.size() == 0) m.error("depths", "expected a list of positive depths in metres");
+      else {
+        depths_.clear();
+        for (const auto& v : d) depths_.push_back(v.as<double>());
+        if (!std::is_sorted(depths_.begin(), depths_.end()) || !(depths_.front() > 0.0))
+          m.error("depths", "depths must be positive and increasing");
+      }
+    }
+  }
+
+  std::string kind() const override { return "hertz-indentation"; }
+  void describe(std::ostream& out) const override {
+    out << "sphere of '" << dem_ << "' zone '" << zone_ << "' into '" << pd_
+        << "': Hertz F = 4/3 E* sqrt(R) d^1.5, E* = " << eStar_ << " Pa";
+  }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == dem_) return {"particle-states", "hybrid-particles"};
+    return {"hybrid-particles"};
+  }
+
+  void observe(const Observation& o) override {
+    const auto sphere = indenter(o);
+    const auto x = wire::view(sphere.getPositions());
+    const auto f = wire::view(sphere.getForces());
+    if (x.size() != 3 || f.size() != 3)
+      throw std::runtime_error("analysis: zone '" + zone_ + "' of '" + dem_ + "' must hold exactly one sphere with forces");
+    if (!haveSurface_) findSurface(o, wire::view(sphere.getRadii())[0]);
+    const double force = f[2];  // the block pushes the sphere up
+    const double bottom = x[2] - radius_;
+    if (!touched_ && force > 0.0) {
+      touched_ = true;
+      contactZ_ = 0.5 * (lastBottom_ + bottom);
+    }
+    lastBottom_ = bottom;
+    const double d = touched_ ? contactZ_ - bottom : 0.0;
+    const double hybrid = hybridForceZ(o);
+    const double hertz = d > 0.0 ? 4.0 / 3.0 * eStar_ * std::sqrt(radius_) * std::pow(d, 1.5) : 0.0;
+    maxForce_ = std::max(maxForce_, std::abs(force));
+    if (hybridSeen_) maxImbalance_ = std::max(maxImbalance_, std::abs(hybrid + force));
+    if (o.series) {
+      const double row[4] = {d, force, -hybrid, hertz};
+      o.series->append("analysis/depth_force_pd_hertz", std::span<const double>(row, 4));
+    }
+    if (o.exchange > 0) samples_.push_back({d, force, hertz});
+    finished_ = d > depths_.back() + 0.5 * window_;
+  }
+
+  bool finished() const override { return finished_; }
+
+  void conclude(RunReport& report) const override {
+    double worst = 0.0;
+    bool any = false;
+    for (double target : depths_) {
+      double f = 0.0, h = 0.0;
+      if (!windowMeans(target, f, h)) continue;
+      const double err = f / h - 1.0;
+      const std::string mm = label(target);
+      report.figures["force_at_" + mm + "mm_N"] = f;
+      report.figures["hertz_at_" + mm + "mm_N"] = h;
+      report.figures["relative_error_at_" + mm + "mm"] = err;
+      worst = std::max(worst, std::abs(err));
+      any = true;
+    }
+    report.errors.push_back({"max_relative_force_error",
+                             "Hertz 4/3 E* sqrt(R) d^1.5 at the target depths (Hartmann 2022 Sec. 4.1)", "1",
+                             any ? worst : 1.0});
+    report.figures["surface_z_m"] = surface_;
+    report.figures["first_contact_z_m"] = touched_ ? contactZ_ : 0.0;
+    report.figures["max_depth_m"] = samples_.empty() ? 0.0 : samples_.back().depth;
+    report.figures["action_reaction_residual"] = maxForce_ > 0.0 ? maxImbalance_ / maxForce_ : 0.0;
+  }
+
+ private:
+  struct Sample {
+    double depth, force, hertz;
+  };
+
+  proto::ParticleStates::Reader indenter(const Observation& o) const {
+    auto out = o.outputs.find(dem_);
+    if (out != o.outputs.end())
+      for (auto s : out->second.getParticles())
+        if (s.getZone() == zone_) return s;
+    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
+                             "' (add params.zones: [{name: " + zone_ + ", box: ...}] around the sphere)");
+  }
+
+  /// Highest top z + R_h of PD's hybrid particles: where the sphere first touches.
+  void findSurface(const Observation& o, double radius) {
+    auto out = o.outputs.find(pd_);
+    if (out == o.outputs.end() || !out->second.hasHybridParticles() || out->second.getHybridParticles().size() == 0)
+      throw std::runtime_error("analysis: solver '" + pd_ + "' sent no hybrid particles");
+    auto h = out->second.getHybridParticles()[0];
+    const auto x = wire::view(h.getPositions());
+    const auto r = wire::view(h.getRadii());
+    surface_ = -1e300;
+    for (std::size_t k = 0; k < r.size(); ++k) surface_ = std::max(surface_, x[3 * k + 2] + r[k]);
+    radius_ = radius;
+    haveSurface_ = true;
+    lastBottom_ = wire::view(indenter(o).getPositions())[2] - radius;
+  }
+
+  /// z of the summed hybrid forces DEM returned (force on PD's surface).
+  double hybridForceZ(const Observation& o) {
+    auto out = o.outputs.find(dem_);
+    double sum = 0.0;
+    hybridSeen_ = false;
+    if (out == o.outputs.end() || !out->second.hasHybridForces()) return sum;
+    for (auto hf : out->second.getHybridForces()) {
+      const auto f = wire::view(hf.getForces());
+      for (std::size_t k = 2; k < f.size(); k += 3) sum += f[k];
+      hybridSeen_ = true;
+    }
+    return sum;
+  }
+
+  bool windowMeans(double target, double& force, double& hertz) const {
+    std::size_t n = 0;
+    force = hertz = 0.0;
+    for (const Sample& s : samples_)
+      if (std::abs(s.depth - target) <= 0.5 * window_) {
+        force += s.force;
+        hertz += s.hertz;
+        ++n;
+      }
+    if (n == 0) return false;
+    force /= static_cast<double>(n);
+    hertz /= static_cast<double>(n);
+    return hertz > 0.0;
+  }
+
+  static std::string label(double depth) {
+    std::ostringstream s;
+    s << depth * 1e3;
+    return s.str();
+  }
+
+  std::string pd_, dem_, zone_;
+  double eStar_ = 0.0, window_ = 5e-4;
+  std::vector<double> depths_;
+  double surface_ = 0.0, radius_ = 0.0;
+  bool touched_ = false;
+  double contactZ_ = 0.0, lastBottom_ = 0.0;
+  bool haveSurface_ = false, hybridSeen_ = false, finished_ = false;
+  double maxForce_ = 0.0, maxImbalance_ = 0.0;
+  std::vector<Sample> samples_;
+};
+
+const bool registered = ReferenceRegistry::add(
+    "hertz-indentation", [](config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<HertzIndentation>(m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

@@ -1,0 +1,121 @@
+// pd-dem-contact: PD-DEM contact coupling through hybrid surface particles
+// (Hartmann, Thoeni, Rojek 2022, Sec. 3). PD exports its surface particles
+// (position, velocity, quasi-radius R = (3V / 4 pi)^(1/3), Eq. 39, body,
+// reference position, horizon); DEM treats them as driven spheres, finds
+// DEM-hybrid and hybrid-hybrid contacts (pairs of one PD family excluded) and
+// returns the mean contact force on every hybrid particle over its interval;
+// PD adds it as f^Coupling in f = f^PD + f^DEM + f^Coupling + m b (Eq. 40),
+// f^Coupling of a hybrid particle being the sum of its contact (and wall)
+// forces. Its body force m b stays in PD (counted once, Sec. 3.2).
+//
+// Each exchange stages PD's latest hybrid states to DEM and DEM's latest
+// hybrid forces to PD. Which states and forces are "latest" is the schedule's
+// business: lockstep + order parallel exchanges both at once (each solver
+// sees the other's state at the interval's start); multirate with
+// order: fine-first / coarse-first gives the staggered updates of Eq. 46-47
+// (docs/pd_dem_coupling.md).
+//
+// Hybrid kinematics over a DEM interval (key `kinematics`):
+//   extrapolated: DEM moves the hybrid spheres with PD's velocities (default);
+//   held:         DEM keeps them at PD's positions (zero velocity sent). When
+//                 DEM takes one step over several PD steps, extrapolating PD's
+//                 surface velocity (which carries its fastest modes) over the
+//                 whole interval can feed energy back into them.
+#include <ostream>
+#include <stdexcept>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+class PdDemContact final : public Coupling {
+ public:
+  PdDemContact(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers)
+      : Coupling(name) {
+    pd_ = requireSolverName(m, "pd", solvers);
+    dem_ = requireSolverName(m, "dem", solvers);
+    if (!pd_.empty() && pd_ == dem_) m.error("dem", "pd and dem must name two different solvers");
+    const std::string kinematics = m.string("kinematics", "extrapolated");
+    if (kinematics != "extrapolated" && kinematics != "held")
+      m.error("kinematics", "must be extrapolated or held, got '" + kinematics + "'");
+    held_ = kinematics == "held";
+  }
+
+  std::string kind() const override { return "pd-dem-contact"; }
+  std::vector<std::string> participants() const override { return {pd_, dem_}; }
+  std::vector<std::string> requiredCapabilities(const std::string& /*solver*/) const override {
+    return {"hybrid-particles"};
+  }
+  void describe(std::ostream& out) const override {
+    out << pd_ << " hybrid surface particles (Eq. 39) -> " << dem_ << " driven spheres; " << dem_
+        << " contact forces -> " << pd_ << " (Hartmann 2022 Sec. 3), hybrid kinematics "
+        << (held_ ? "held" : "extrapolated");
+  }
+
+  void exchange(ExchangeContext& ctx) override {
+    const auto pd = ctx.outputs.find(pd_);
+    const auto dem = ctx.outputs.find(dem_);
+    if (pd == ctx.outputs.end() || dem == ctx.outputs.end()) return;
+    stageParticles(pd->second, ctx);
+    stageForces(dem->second, ctx);
+  }
+
+ private:
+  void stageParticles(proto::CouplingData::Reader pd, ExchangeContext& ctx) {
+    if (!pd.hasHybridParticles() || pd.getHybridParticles().size() == 0)
+      throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent no hybrid particles at exchange " +
+                               std::to_string(ctx.exchange) + " (is params.hybrid false?)");
+    for (auto h : pd.getHybridParticles()) {
+      std::span<const double> velocities = wire::view(h.getVelocities());
+      if (held_) {
+        zeros_.assign(velocities.size(), 0.0);
+        velocities = zeros_;
+      }
+      ctx.inputs[dem_].stageHybridParticles(
+          {wire::view(h.getIds()), wire::view(h.getBodyIds()), wire::view(h.getReferencePositions()),
+           wire::view(h.getPositions()), velocities, wire::view(h.getRadii()), wire::view(h.getHorizons())});
+    }
+  }
+
+  void stageForces(proto::CouplingData::Reader dem, ExchangeContext& ctx) const {
+    if (!dem.hasHybridForces()) return;  // DEM has not seen the hybrid particles yet (setup outputs)
+    for (auto f : dem.getHybridForces()) {
+      const auto ids = wire::view(f.getIds());
+      const auto forces = wire::view(f.getForces());
+      ctx.inputs[pd_].stageHybridForces({ids, forces});
+      record(ids, forces, ctx);
+    }
+  }
+
+  /// Total force on PD's surface (= minus the force on DEM spheres and walls) and
+  /// the number of loaded hybrid particles, under /series/<name>/.
+  void record(std::span<const std::uint32_t> ids, std::span<const double> forces, ExchangeContext& ctx) const {
+    if (!ctx.series) return;
+    double total[3] = {0, 0, 0};
+    double loaded = 0.0;
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      const double* f = &forces[3 * k];
+      for (int d = 0; d < 3; ++d) total[d] += f[d];
+      loaded += (f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0) ? 1.0 : 0.0;
+    }
+    ctx.series->append(name() + "/hybrid_force", std::span<const double>(total, 3));
+    ctx.series->append(name() + "/loaded_particles", loaded);
+  }
+
+  std::string pd_, dem_;
+  bool held_ = false;
+  std::vector<double> zeros_;  // velocities staged with held kinematics
+};
+
+const bool registered = CouplingRegistry::add(
+    "pd-dem-contact", [](const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<PdDemContact>(name, m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

@@ -1,0 +1,55 @@
+#pragma once
+// Hybrid PD surface particles on the DEM side (Hartmann 2022, Sec. 3.1-3.2).
+// PD exports its surface particles (position, velocity, quasi-radius Eq. 39,
+// body, reference position, horizon); DEM keeps each as a driven sphere: its
+// state is set at every exchange and it moves with its velocity over the
+// sub-steps, never integrated. Pairs of one PD family (same body, reference
+// distance within the horizon) are excluded from contact, since their
+// interaction is PD's bond force; every other pair (DEM-hybrid, hybrid of
+// another body, or of the same body across its surface) is an ordinary contact.
+// The contact (and plane wall) force on each hybrid particle is summed over the
+// sub-steps and returned as its mean: the impulse over the interval / interval.
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "cosim/dem/dem_system.hpp"
+#include "pddem.capnp.h"
+
+namespace cosim::dem {
+
+/// One body's family rule: pairs (a, b) of indices into refPositions (3 per
+/// particle) with bodies[a] == bodies[b] and |X_a - X_b| <= horizons[body].
+/// Throws std::invalid_argument on inconsistent sizes or an unknown body.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> familyPairs(const std::vector<std::uint32_t>& bodies,
+                                                                  const std::vector<double>& refPositions,
+                                                                  const std::vector<double>& horizons);
+
+class HybridSpheres {
+ public:
+  /// Adds the spheres of the first message (returns true: the system must be
+  /// re-initialised) or updates their positions and velocities. Throws
+  /// std::invalid_argument naming the problem for malformed or changed sets.
+  bool apply(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material);
+  std::size_t size() const { return ids_.size(); }
+  /// Starts a new interval of contact-force sums.
+  void beginInterval();
+  /// Adds this step's force on every hybrid sphere.
+  void accumulate(const Particles& p);
+  /// Ends the interval of `steps` sub-steps: the returned forces are the mean.
+  void endInterval(std::uint32_t steps);
+  /// The mean force of the last interval (before any: the current forces).
+  void fill(proto::HybridForces::Builder out, const Particles& p) const;
+  const std::vector<std::uint32_t>& particleIndices() const { return index_; }
+
+ private:
+  void add(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material);
+  std::vector<std::uint32_t> ids_;    // PD particle ids, as exported
+  std::vector<std::uint32_t> index_;  // DEM particle index of each
+  std::unordered_map<std::uint32_t, std::uint32_t> slot_;  // PD id -> position in ids_
+  std::vector<Vec3> impulse_, mean_;
+  bool averaged_ = false;
+};
+
+}  // namespace cosim::dem

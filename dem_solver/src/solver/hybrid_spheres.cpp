@@ -1,0 +1,148 @@
+#include "cosim/dem/solver/hybrid_spheres.hpp"
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <span>
+#include <stdexcept>
+#include <string>
+
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::dem {
+namespace {
+
+Vec3 at(std::span<const double> v, std::size_t k) { return {v[3 * k], v[3 * k + 1], v[3 * k + 2]}; }
+
+bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+}  // namespace
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> familyPairs(const std::vector<std::uint32_t>& bodies,
+                                                                  const std::vector<double>& refPositions,
+                                                                  const std::vector<double>& horizons) {
+  const std::size_t n = bodies.size();
+  if (refPositions.size() != 3 * n)
+    throw std::invalid_argument("hybrid particles: " + std::to_string(refPositions.size()) +
+                                " reference coordinates for " + std::to_string(n) + " particles");
+  // Bin each body's particles in cells one horizon wide: family partners lie in the 27 around.
+  std::map<std::array<long, 4>, std::vector<std::uint32_t>> cells;
+  std::vector<std::array<long, 4>> key(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const std::uint32_t b = bodies[a];
+    if (b >= horizons.size() || !(horizons[b] > 0.0))
+      throw std::invalid_argument("hybrid particle " + std::to_string(a) + ": body " + std::to_string(b) +
+                                  " has no positive horizon (" + std::to_string(horizons.size()) + " sent)");
+    key[a] = {static_cast<long>(b), 0, 0, 0};
+    for (std::size_t d = 0; d < 3; ++d)
+      key[a][d + 1] = static_cast<long>(std::floor(refPositions[3 * a + d] / horizons[b]));
+    cells[key[a]].push_back(static_cast<std::uint32_t>(a));
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  for (std::size_t a = 0; a < n; ++a) {
+    // A family is |xi| <= delta (Hartmann Eq. 1); the relative slack keeps lattice
+    // partners exactly at delta in the family despite round-off.
+    const double reach = horizons[bodies[a]] * (1.0 + 1e-9);
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) {
+          const auto it = cells.find({key[a][0], key[a][1] + dx, key[a][2] + dy, key[a][3] + dz});
+          if (it == cells.end()) continue;
+          for (std::uint32_t b : it->second) {
+            if (b <= a) continue;
+            double d2 = 0.0;
+            for (std::size_t d = 0; d < 3; ++d) {
+              const double e = refPositions[3 * a + d] - refPositions[3 * b + d];
+              d2 += e * e;
+            }
+            if (d2 <= reach * reach) pairs.emplace_back(static_cast<std::uint32_t>(a), b);
+          }
+        }
+  }
+  return pairs;
+}
+
+bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material) {
+  const auto ids = wire::view(message.getIds());
+  const auto x = wire::view(message.getPositions());
+  const auto v = wire::view(message.getVelocities());
+  if (x.size() != 3 * ids.size() || v.size() != 3 * ids.size())
+    throw std::invalid_argument("hybrid particles: positions and velocities must hold 3 values per id (" +
+                                std::to_string(ids.size()) + " ids, " + std::to_string(x.size()) + " and " +
+                                std::to_string(v.size()) + " values)");
+  const bool first = ids_.empty();
+  if (first) add(message, system, material);
+  if (ids.size() != ids_.size())
+    throw std::invalid_argument("hybrid particles: " + std::to_string(ids.size()) + " sent, but the set had " +
+                                std::to_string(ids_.size()) + " (the set is fixed at its first exchange)");
+  Particles& p = system.particles;
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const auto it = slot_.find(ids[k]);
+    if (it == slot_.end())
+      throw std::invalid_argument("hybrid particles: id " + std::to_string(ids[k]) + " was not in the first set");
+    const Vec3 xk = at(x, k), vk = at(v, k);
+    if (!finite(xk) || !finite(vk))
+      throw std::invalid_argument("hybrid particles: non-finite state of id " + std::to_string(ids[k]));
+    const std::uint32_t i = index_[it->second];
+    p.x[i] = xk;
+    p.v[i] = vk;
+  }
+  return first;
+}
+
+void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material) {
+  const auto ids = wire::view(message.getIds());
+  const auto bodies = wire::view(message.getBodyIds());
+  const auto radii = wire::view(message.getRadii());
+  const auto ref = wire::view(message.getReferencePositions());
+  const auto horizons = wire::view(message.getHorizons());
+  if (bodies.size() != ids.size() || radii.size() != ids.size())
+    throw std::invalid_argument("hybrid particles: " + std::to_string(ids.size()) + " ids but " +
+                                std::to_string(bodies.size()) + " body ids and " + std::to_string(radii.size()) +
+                                " radii");
+  const auto pairs = familyPairs({bodies.begin(), bodies.end()}, {ref.begin(), ref.end()},
+                                 {horizons.begin(), horizons.end()});
+  Particles& p = system.particles;
+  const auto first = static_cast<std::uint32_t>(p.size());
+  // Mass from the hybrid material's density and the quasi-radius (rho 4/3 pi R^3 = rho V, Eq. 39):
+  // it enters only the reduced mass of the contact damping.
+  const double density = system.materials[material].density;
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (!(radii[k] > 0.0) || !std::isfinite(radii[k]))
+      throw std::invalid_argument("hybrid particle id " + std::to_string(ids[k]) + ": radius must be positive");
+    if (!slot_.emplace(ids[k], static_cast<std::uint32_t>(k)).second)
+      throw std::invalid_argument("hybrid particles: id " + std::to_string(ids[k]) + " sent twice");
+    const std::size_t i = p.add({}, radii[k], density, material);
+    p.driven[i] = 1;
+    ids_.push_back(ids[k]);
+    index_.push_back(static_cast<std::uint32_t>(i));
+  }
+  for (const auto& [a, b] : pairs) system.excludedPairs.emplace_back(first + a, first + b);
+  impulse_.assign(ids_.size(), {});
+  mean_.assign(ids_.size(), {});
+}
+
+void HybridSpheres::beginInterval() { impulse_.assign(ids_.size(), {}); }
+
+void HybridSpheres::accumulate(const Particles& p) {
+  // p.f of a driven sphere is its contact and wall reaction only (no body force).
+  for (std::size_t k = 0; k < index_.size(); ++k) impulse_[k] += p.f[index_[k]];
+}
+
+void HybridSpheres::endInterval(std::uint32_t steps) {
+  for (std::size_t k = 0; k < impulse_.size(); ++k) mean_[k] = (1.0 / steps) * impulse_[k];
+  averaged_ = true;
+}
+
+void HybridSpheres::fill(proto::HybridForces::Builder out, const Particles& p) const {
+  const auto n = static_cast<unsigned>(ids_.size());
+  auto ids = wire::view(out.initIds(n));
+  auto f = wire::view(out.initForces(3 * n));
+  for (unsigned k = 0; k < n; ++k) {
+    ids[k] = ids_[k];
+    const Vec3 fk = averaged_ ? mean_[k] : p.f[index_[k]];
+    for (int d = 0; d < 3; ++d) f[3 * k + static_cast<unsigned>(d)] = fk[d];
+  }
+}
+
+}  // namespace cosim::dem

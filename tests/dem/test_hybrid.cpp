@@ -1,0 +1,151 @@
+// Hybrid PD particles in DEM (Hartmann 2022 Sec. 3): the family exclusion
+// rule, driven kinematics over sub-steps, and the returned forces (contact
+// and wall forces, no body force, averaged over the interval).
+#include <capnp/message.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "cosim/dem/solver/dem_solver.hpp"
+#include "cosim/dem/solver/hybrid_spheres.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::dem {
+namespace {
+
+TEST(HybridFamilies, SameBodyWithinTheHorizonIsExcludedOtherPairsAreNot) {
+  // Body 0 on a line at spacing 1, horizon 2; body 1 interleaved.
+  const std::vector<std::uint32_t> bodies{0, 0, 0, 0, 1, 1};
+  const std::vector<double> x{0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0, 0.5, 0, 0, 2.5001, 0, 0};
+  const std::vector<double> horizons{2.0, 2.0};
+  auto pairs = familyPairs(bodies, x, horizons);
+  std::sort(pairs.begin(), pairs.end());
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> expected{{0, 1}, {0, 2}, {1, 2}, {1, 3}, {2, 3}};
+  // (0, 3) lies 3 apart; (4, 5) lie 2.0001 apart: beyond the horizon, contact allowed.
+  EXPECT_EQ(pairs, expected);
+  EXPECT_THROW(familyPairs({0, 2}, {0, 0, 0, 1, 0, 0}, horizons), std::invalid_argument);
+  EXPECT_THROW(familyPairs({0, 0}, {0, 0, 0}, horizons), std::invalid_argument);
+}
+
+const char* kScene = R"(scene: {name: t}
+solvers:
+  - name: particles
+    kind: dem
+    params:
+      contact: {normal: hertz, tangential: none, damping: none}
+      gravity: [0, 0, -9.81]
+      materials:
+        - {name: grain, density: 1000, young: 1.0e7, poisson: 0.25}
+        - {name: pd-surface, density: 1100, young: 2.0e7, poisson: 0.3}
+      hybrid: {material: pd-surface}
+      particles:
+        - sphere: {position: [0, 0, 0.0195], radius: 0.01, material: grain}
+      walls:
+        - {type: plane, point: [0, 0, -0.0095], normal: [0, 0, 1], material: grain}
+)";
+
+// Hybrid particles of one body (horizon 0.015): A under the free sphere, B in
+// A's family (overlapping A, excluded), C on the floor, E above C beyond the
+// horizon (self-contact across the surface), D far away in the air.
+struct Hybrids {
+  std::vector<std::uint32_t> ids{10, 11, 12, 13, 14};
+  std::vector<double> x{0, 0, 0, 0.012, 0, 0, 0.1, 0, 0, 0.3, 0, 0.5, 0.1, 0, 0.019};
+  std::vector<double> v{0, 0, 0, 0, 0, 0, 0, 0, -1e-3, 0, 0, 0, 0, 0, 0};
+  void write(proto::CouplingData::Builder data) const {
+    auto h = data.initHybridParticles(1)[0];
+    const auto n = static_cast<unsigned>(ids.size());
+    std::copy(ids.begin(), ids.end(), wire::view(h.initIds(n)).begin());
+    wire::view(h.initBodyIds(n));
+    std::copy(x.begin(), x.end(), wire::view(h.initReferencePositions(3 * n)).begin());
+    std::copy(x.begin(), x.end(), wire::view(h.initPositions(3 * n)).begin());
+    std::copy(v.begin(), v.end(), wire::view(h.initVelocities(3 * n)).begin());
+    for (double& r : wire::view(h.initRadii(n))) r = 0.01;
+    wire::view(h.initHorizons(1))[0] = 0.015;
+  }
+};
+
+struct DemRun {
+  DemSolver solver;
+  capnp::MallocMessageBuilder in, out;
+  proto::CouplingData::Builder inputs = in.initRoot<proto::CouplingData>();
+  explicit DemRun(const Hybrids& h) {
+    h.write(inputs);
+    solver.setup({"scene.yaml", kScene, "particles", "", inputs.asReader()}, out.initRoot<proto::CouplingData>());
+  }
+  proto::HybridForces::Reader advance(std::uint32_t steps, double dt) {
+    wire::AdvanceRequest r;
+    r.steps = steps;
+    r.dt = dt;
+    r.inputs = inputs.asReader();
+    solver.advance(r, out.initRoot<proto::CouplingData>());
+    return out.getRoot<proto::CouplingData>().asReader().getHybridForces()[0];
+  }
+};
+
+Vec3 forceOf(proto::HybridForces::Reader f, std::size_t k) {
+  const auto v = wire::view(f.getForces());
+  return {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+}
+
+TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
+  const Hybrids h;
+  const double dt = 1e-5;
+  const std::uint32_t steps = 20;
+  DemRun run(h);
+  ASSERT_EQ(run.solver.hybrids().size(), 5u);
+  const auto f = run.advance(steps, dt);
+  ASSERT_EQ(f.getIds().size(), 5u);
+  EXPECT_EQ(f.getIds()[2], 12u);
+
+  // The same interval one step at a time (each exchange sends the hybrid states
+  // the driven motion reaches): the returned force must be the mean (impulse / interval).
+  DemRun single(h);
+  std::vector<Vec3> sum(5);
+  for (std::uint32_t s = 0; s < steps; ++s) {
+    Hybrids moved = h;
+    for (std::size_t c = 0; c < moved.x.size(); ++c) moved.x[c] += s * dt * moved.v[c];
+    moved.write(single.inputs);
+    const auto g = single.advance(1, dt);
+    for (std::size_t k = 0; k < 5; ++k) sum[k] += forceOf(g, k);
+  }
+  for (std::size_t k = 0; k < 5; ++k)
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(forceOf(f, k)[d], sum[k][d] / steps, 1e-12 * (1.0 + std::abs(sum[k][d])));
+
+  const auto& p = run.solver.system().particles;
+  const auto& idx = run.solver.hybrids().particleIndices();
+  // Driven: C moved with its velocity over the sub-steps (and was not integrated).
+  EXPECT_NEAR(p.x[idx[2]].z, -1e-3 * steps * dt, 1e-15);
+  // D touches nothing: no force, although gravity acts in DEM (PD applies it).
+  EXPECT_EQ(norm(forceOf(f, 3)), 0.0);
+  // B overlaps A by 8 mm but is in A's family: only the wall pushes it (up, 0.5 mm overlap).
+  const Vec3 fb = forceOf(f, 1);
+  EXPECT_GT(fb.z, 0.0);
+  EXPECT_NEAR(fb.x, 0.0, 1e-12);
+  // A: the same wall force minus the free sphere's push (the sphere sits on it).
+  EXPECT_LT(forceOf(f, 0).z, fb.z);
+  // E: self-contact with C across the surface (1 mm overlap, beyond the horizon) pushes it up.
+  EXPECT_GT(forceOf(f, 4).z, 0.0);
+}
+
+TEST(HybridSpheresInDem, BadMessagesAreRefused) {
+  Hybrids h;
+  DemRun run(h);
+  Hybrids fewer = h;
+  fewer.ids.pop_back();
+  fewer.x.resize(12);
+  fewer.v.resize(12);
+  fewer.write(run.inputs);
+  EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
+  Hybrids other = h;
+  other.ids[0] = 99;
+  other.write(run.inputs);
+  EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
+  Hybrids nan = h;
+  nan.x[0] = std::nan("");
+  nan.write(run.inputs);
+  EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
+}
+
+}  // namespace
+}  // namespace cosim::dem
