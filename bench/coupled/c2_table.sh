@@ -18,7 +18,7 @@ declare -A paper=([0.0]="33.5" [0.6]="29.5")
 printf "%-8s %-8s %-14s %-12s %-10s %s\n" "c [m]" "c/dX" "dE/E [%]" "paper [%]" "wall [s]" "status"
 for c in $widths; do
   scene=$work/c$c.yaml
-  sed -e "s/^    width: .*/    width: $c/" -e "s|dir: out/c2-wave-volume-1p|dir: $work/out$c|" "$root/configs/c2/wave_volume_1p.yaml" > "$scene"
+  sed -e "s/^    width: .*/    width: $c/" -e "s|dir: runs/c2-wave-volume-1p|dir: $work/out$c|" "$root/configs/c2/wave_volume_1p.yaml" > "$scene"
   if [ -n "${C2_DT:-}" ]; then sed -i "s/3.2e-5/$C2_DT/g" "$scene"; fi
   start=$(date +%s.%N)
   "$build/bin/coupler" run "$scene" --out "$work/out$c" --no-progress > "$work/c$c.log" 2>&1 || true

@@ -1,0 +1,172 @@
+// wave-stations: a wave's record at fixed stations, against a stored run
+// (scene C2, Cheng 2022 Sec. 6.2: "waveform at fixed stations against the
+// full-DEM reference"). At setup the particle nearest each station point (by
+// initial position) is chosen in a DEM zone; every exchange its velocity
+// component goes to /series/analysis/station_velocity. With `reference_run`
+// (the coupler.h5 of a run of the same stations, e.g. the full-DEM scene with
+// this same analysis) the error is
+//   e = sqrt( mean over stations and reference times of (v - v_ref)^2 ) / max |v_ref|,
+// with this run's record interpolated linearly to the reference's times
+// inside the span both cover. Figures: the dissipation ratio
+//   dE/E = (E_0 - E_end) / E_0,  E = the solvers' kinetic + elastic + strain energies
+// (Cheng Sec. 6.2.2; a coupling's penalty energy is not in it), and each
+// station's peak velocity.
+#include <algorithm>
+#include <cmath>
+#include <ostream>
+
+#include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/reference.hpp"
+#include "cosim/coupler/config/scene.hpp"
+#include "cosim/io/h5_file.hpp"
+#include "cosim/wire/arrays.hpp"
+
+namespace cosim::coupler {
+namespace {
+
+class WaveStations final : public Reference {
+ public:
+  WaveStations(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+    dem_ = requireSolverName(m, "dem", solvers);
+    zone_ = m.string("zone", "all");
+    readStations(m);
+    const std::string axis = m.string("component", "y");
+    if (axis != "x" && axis != "y" && axis != "z") m.error("component", "must be x, y or z, got '" + axis + "'");
+    component_ = static_cast<std::size_t>(axis[0] - 'x');
+    referenceRun_ = m.string("reference_run", "");  // relative to the working directory, like output.dir
+  }
+
+  std::string kind() const override { return "wave-stations"; }
+  void describe(std::ostream& out) const override {
+    out << stations_.size() / 3 << " station(s) in zone '" << zone_ << "' of '" << dem_ << "', velocity "
+        << "xyz"[component_] << (referenceRun_.empty() ? std::string(", no stored reference") : ", against " + referenceRun_);
+  }
+  std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
+    if (solver == dem_) return {"particle-states"};
+    return {};
+  }
+
+  void observe(const Observation& o) override {
+    const auto states = zoneStates(o);
+    if (members_.empty()) pickStations(states);
+    const auto v = wire::view(states.getVelocities());
+    for (std::size_t s = 0; s < members_.size(); ++s) sample_[s] = v[3 * members_[s] + component_];
+    times_.push_back(o.time);
+    record_.insert(record_.end(), sample_.begin(), sample_.end());
+    const double e = energy(o);
+    if (o.exchange == 0) initialEnergy_ = e;
+    finalEnergy_ = e;
+    if (o.series) o.series->append("analysis/station_velocity", sample_);
+  }
+
+  void conclude(RunReport& report) const override {
+    if (!referenceRun_.empty()) {
+      const double e = errorAgainstReference();
+      report.errors.push_back({"station_velocity_rms_error", "stored run " + referenceRun_, "of the peak", e});
+    }
+    report.figures["dissipation_ratio"] = initialEnergy_ > 0.0 ? (initialEnergy_ - finalEnergy_) / initialEnergy_ : 0.0;
+    for (std::size_t s = 0; s < members_.size(); ++s) {
+      double peak = 0.0;
+      for (std::size_t t = 0; t < times_.size(); ++t) peak = std::max(peak, std::abs(record_[t * members_.size() + s]));
+      report.figures["station_" + std::to_string(s) + "_peak_velocity"] = peak;
+    }
+  }
+
+ private:
+  void readStations(config::MapReader& m) {
+    const YAML::Node list = m.node("stations");
+    if (!list || !list.IsSequence() || list.size() == 0) {
+      m.error("stations", "expected a list of points [x, y, z]");
+      return;
+    }
+    for (const auto& p : list) {
+      if (!p.IsSequence() || p.size() != 3) {
+        m.errorAt(p.Mark(), "analysis.stations: each station is a point [x, y, z]");
+        return;
+      }
+      for (const auto& c : p) stations_.push_back(c.as<double>());
+    }
+  }
+
+  proto::ParticleStates::Reader zoneStates(const Observation& o) const {
+    auto out = o.outputs.find(dem_);
+    if (out != o.outputs.end())
+      for (auto s : out->second.getParticles())
+        if (s.getZone() == zone_) return s;
+    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
+                             "' (add params.zones: [{name: " + zone_ + "}] to it)");
+  }
+
+  void pickStations(proto::ParticleStates::Reader states) {
+    const auto x = wire::view(states.getPositions());
+    if (x.empty()) throw std::runtime_error("analysis: zone '" + zone_ + "' of '" + dem_ + "' holds no particle");
+    for (std::size_t s = 0; 3 * s < stations_.size(); ++s) {
+      std::size_t best = 0;
+      double bestDistance = std::numeric_limits<double>::infinity();
+      for (std::size_t p = 0; 3 * p < x.size(); ++p) {
+        const double d = std::hypot(x[3 * p] - stations_[3 * s], x[3 * p + 1] - stations_[3 * s + 1],
+                                    x[3 * p + 2] - stations_[3 * s + 2]);
+        if (d < bestDistance) bestDistance = d, best = p;
+      }
+      members_.push_back(best);
+    }
+    sample_.assign(members_.size(), 0.0);
+  }
+
+  double energy(const Observation& o) const {
+    double e = 0.0;
+    for (const auto& [solver, values] : o.energies) e += sumEnergies(o.energies, solver, {"kinetic", "elastic", "strain"});
+    return e;
+  }
+
+  /// This run's record of station s at time t (linear between exchanges).
+  double sampleAt(std::size_t s, double t) const {
+    const auto it = std::lower_bound(times_.begin(), times_.end(), t);
+    const auto k = static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(it - times_.begin(), 1,
+                                                                        static_cast<std::ptrdiff_t>(times_.size()) - 1));
+    const double t0 = times_[k - 1], t1 = times_[k], n = static_cast<double>(members_.size());
+    const double a = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
+    const double v0 = record_[(k - 1) * static_cast<std::size_t>(n) + s], v1 = record_[k * static_cast<std::size_t>(n) + s];
+    return (1.0 - a) * v0 + a * v1;
+  }
+
+  double errorAgainstReference() const {
+    const auto h5 = io::H5File::openReadOnly(referenceRun_);
+    const auto refTimes = h5.readArray("/series/time");
+    const auto ref = h5.readArray("/series/analysis/station_velocity");
+    const std::size_t n = members_.size();
+    if (refTimes.empty() || ref.size() != refTimes.size() * n)
+      throw std::runtime_error("analysis.reference_run: " + referenceRun_ + " holds " + std::to_string(ref.size()) +
+                               " station samples for " + std::to_string(refTimes.size()) + " times; this run has " +
+                               std::to_string(n) + " stations (run the reference with the same stations)");
+    double sum = 0.0, peak = 0.0;
+    std::size_t count = 0;
+    for (std::size_t t = 0; t < refTimes.size(); ++t) {
+      if (refTimes[t] < times_.front() || refTimes[t] > times_.back()) continue;
+      for (std::size_t s = 0; s < n; ++s) {
+        const double diff = sampleAt(s, refTimes[t]) - ref[t * n + s];
+        sum += diff * diff;
+        peak = std::max(peak, std::abs(ref[t * n + s]));
+        ++count;
+      }
+    }
+    if (count == 0 || !(peak > 0.0))
+      throw std::runtime_error("analysis.reference_run: " + referenceRun_ + " does not overlap this run in time");
+    return std::sqrt(sum / static_cast<double>(count)) / peak;
+  }
+
+  std::string dem_, zone_, referenceRun_;
+  std::vector<double> stations_;       // 3 per station
+  std::size_t component_ = 1;
+  std::vector<std::size_t> members_;   // index in the zone of each station's particle
+  std::vector<double> sample_, times_, record_;  // record_: stations per time
+  double initialEnergy_ = 0.0, finalEnergy_ = 0.0;
+};
+
+const bool registered = ReferenceRegistry::add(
+    "wave-stations", [](config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<WaveStations>(m, solvers);
+    });
+
+}  // namespace
+}  // namespace cosim::coupler

@@ -1,0 +1,53 @@
+// wave-stations against a stored run: scene C2's full-DEM reference is run
+// first, then the Arlequin-coupled scene compares its station velocities with
+// it. Both cut to 0.03 s (the wave has passed the first two stations).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "subprocess.hpp"
+
+namespace cosim::testing {
+namespace {
+namespace fs = std::filesystem;
+
+nlohmann::json report(const fs::path& dir) {
+  std::ifstream in(dir / "run_report.json");
+  return nlohmann::json::parse(in);
+}
+
+TEST(WaveStations, CoupledRunIsComparedWithTheStoredFullDemRun) {
+  const auto dir = freshDirectory("c2-stations");
+  const auto reference = dir / "reference";
+  auto f = run({binary("coupler"), "run", sourcePath("configs/c2/wave_full_dem_1p.yaml"), "--out", reference.string(),
+                "--no-progress", "--set", "schedule.end_time=0.03"},
+               60.0);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const auto full = report(reference);
+  EXPECT_TRUE(full["errors"].empty()) << "without reference_run there is nothing to compare with";
+  EXPECT_NEAR(full["figures"]["dissipation_ratio"].get<double>(), 0.0, 1e-3) << "a bonded lattice conserves energy";
+  EXPECT_GT(full["figures"]["station_0_peak_velocity"].get<double>(), 0.02);
+
+  f = run({binary("coupler"), "run", sourcePath("configs/c2/wave_volume_1p.yaml"), "--out", (dir / "coupled").string(),
+           "--no-progress", "--set", "schedule.end_time=0.03", "--set",
+           "analysis.reference_run=" + (reference / "coupler.h5").string()},
+          60.0);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const auto coupled = report(dir / "coupled");
+  ASSERT_FALSE(coupled["errors"].empty()) << f.err;
+  EXPECT_EQ(coupled["errors"][0]["name"], "station_velocity_rms_error");
+  // Before the wave reaches the coupling zone both runs are the same lattice.
+  EXPECT_LT(coupled["errors"][0]["value"].get<double>(), 0.02);
+
+  // A stored run with other stations is refused with a message.
+  f = run({binary("coupler"), "run", sourcePath("configs/c2/wave_volume_1p.yaml"), "--out", (dir / "bad").string(),
+           "--no-progress", "--set", "schedule.end_time=0.002", "--set", "analysis.stations=[[0.2, 2.2, 0.2]]", "--set",
+           "analysis.reference_run=" + (reference / "coupler.h5").string()},
+          60.0);
+  EXPECT_NE(f.err.find("run the reference with the same stations"), std::string::npos) << f.err;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cosim::testing
