@@ -73,6 +73,16 @@ TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {
   EXPECT_LT(c1.report()["errors"][0]["value"].get<double>(), 1e-4);
 }
 
+TEST(SurfaceCouplingRun, EnergyGrowthBeyondTheLimitStopsTheRunAsUnstable) {
+  C1Run c1;
+  // The coupled energy drifts by a few per mille over these 30 steps: a limit of
+  // 1.0001 x the initial energy must stop the run, naming the numbers.
+  const auto done = c1.run({"--set", "analysis.max_energy_growth=1.0001"});
+  EXPECT_EQ(done.code, 4) << done.out << done.err;
+  EXPECT_NE(done.err.find("unstable run"), std::string::npos) << done.err;
+  EXPECT_NE(done.err.find("max_energy_growth"), std::string::npos) << done.err;
+}
+
 TEST(SurfaceCouplingRun, CheckRefusesAKernelWithoutWidth) {
   C1Run c1;
   const auto scene = c1.dir / "bad.yaml";

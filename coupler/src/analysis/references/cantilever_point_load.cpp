@@ -34,6 +34,9 @@ class CantileverPointLoad final : public Reference {
     length_ = m.requireNumber("length", config::Range::positive());
     halfWidth_ = m.requireNumber("half_width", config::Range::positive());
     axisX_ = m.number("axis_x", 0.0);
+    // A CG width or schedule outside the stable range shows as energy growth;
+    // the run is stopped as unstable long before it could reach NaN.
+    maxGrowth_ = m.number("max_energy_growth", 1000.0, {1.0, 1e12, true});
   }
 
   std::string kind() const override { return "cantilever-point-load"; }
@@ -51,6 +54,12 @@ class CantileverPointLoad final : public Reference {
     const auto x = wire::view(states.getPositions());
     if (o.exchange == 0 || x0_.empty()) start(states, o);
     const double energy = totalEnergy(o);
+    if (o.exchange == 0) initialEnergy_ = std::max(std::abs(energy), 1e-12);
+    if (!(energy <= maxGrowth_ * initialEnergy_))
+      throw std::runtime_error("analysis: unstable run: the coupled total energy is " + std::to_string(energy) +
+                               " J at t = " + std::to_string(o.time) + " s, more than " + std::to_string(maxGrowth_) +
+                               " times its initial " + std::to_string(initialEnergy_) +
+                               " J (analysis.max_energy_growth); the CG width or the schedule is outside the stable range");
     if (o.series) {
       o.series->append("analysis/total_energy", energy);
       o.series->append("analysis/positions", x);
@@ -151,7 +160,7 @@ class CantileverPointLoad final : public Reference {
   std::string dem_, zone_;
   double young_ = 0.0, inertia_ = 0.0, gravity_ = 0.0, length_ = 0.0, halfWidth_ = 0.0, axisX_ = 0.0;
   std::vector<double> x0_, drift_, zRef_;
-  double load_ = 0.0, initialPotential_ = 0.0;
+  double load_ = 0.0, initialPotential_ = 0.0, initialEnergy_ = 0.0, maxGrowth_ = 1000.0;
   bool coupled_ = true, finished_ = false;
   double startTime_ = 0.0, lastTime_ = 0.0, lastError_ = 0.0, errorIntegral_ = 0.0, maxEnergy_ = 0.0;
   double fallOffTime_ = 0.0;
