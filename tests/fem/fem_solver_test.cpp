@@ -78,8 +78,52 @@ TEST(FemSolverAdapter, StaticCantileverThroughTheScene) {
   std::printf("[solver static] tip %.6e m, Timoshenko %.6e m\n", tip, ref);
   EXPECT_LT(std::abs(tip - ref) / ref, 0.02);
   const auto e = s.energies();
-  ASSERT_EQ(e.size(), 4u);
+  ASSERT_EQ(e.size(), 5u);
   EXPECT_GT(e[1].second, 0.0);
+  EXPECT_EQ(e[3].first, "hourglass_dissipated");
+}
+
+TEST(FemSolverAdapter, PeriodicKeyTiesOppositeFaces) {
+  FemSolver s;
+  Harness h;
+  // The beam tied periodically across x (faces 0.8 apart) with a jump in z.
+  h.setup(s, scene("{type: static}", "      periodic:\n        - {axis: x, jump: [0, 0, 1.0e-3]}\n"));
+  const Model& m = s.model();
+  const std::size_t xmax = m.mesh().nodeSet("xmax").size();
+  // Every xmax dof is a slave, except the clamped ones, whose prescription
+  // wins (both ends prescribed); on the clamp both sides are fixed.
+  const std::size_t clampedXmax = 3;  // nodes of xmax on the clamp (3 through z)
+  EXPECT_EQ(m.slaves().size(), 3 * xmax - 3 * clampedXmax);
+  for (const SlaveDof& sd : m.slaves()) {
+    const Vec3 d = m.mesh().node(static_cast<Index>(sd.dof / 3)) - m.mesh().node(static_cast<Index>(sd.master / 3));
+    EXPECT_NEAR(std::abs(d[0]), 0.8, 1e-12);
+    EXPECT_NEAR(d[1], 0.0, 1e-12);
+  }
+  h.advance(s, 1, 1.0);
+  for (const SlaveDof& sd : m.slaves())
+    EXPECT_NEAR(s.state().u[sd.dof] - s.state().u[sd.master], sd.jump.displacement(1.0), 1e-15);
+}
+
+TEST(FemSolverAdapter, BadPeriodicAndHourglassKeysAreNamed) {
+  FemSolver s;
+  Harness h;
+  const std::string axis = errorOf([&] { h.setup(s, scene("{type: static}", "      periodic: [{axis: w}]\n")); });
+  EXPECT_NE(axis.find("scene.yaml:20"), std::string::npos) << axis;
+  EXPECT_NE(axis.find("periodic[0].axis must be x, y or z"), std::string::npos) << axis;
+  const std::string unmatched = errorOf(
+      [&] { h.setup(s, scene("{type: static}", "      periodic: [{min: xmin, max: xmax, offset: [0.7, 0, 0]}]\n")); });
+  EXPECT_NE(unmatched.find("scene.yaml:20"), std::string::npos) << unmatched;
+  EXPECT_NE(unmatched.find("periodic node"), std::string::npos) << unmatched;
+  std::string viscous = scene("{type: static}", "      hourglass: {type: viscous, coefficient: 0.05}\n");
+  viscous.replace(viscous.find("incompatible-modes"), 18, "one-point");
+  const std::string implicit = errorOf([&] { h.setup(s, viscous); });
+  EXPECT_NE(implicit.find("scene.yaml:19"), std::string::npos) << implicit;
+  EXPECT_NE(implicit.find("viscous hourglass control needs central-difference"), std::string::npos) << implicit;
+  std::string sticky = scene("{type: central-difference}", "      hourglass: {type: sticky}\n");
+  sticky.replace(sticky.find("incompatible-modes"), 18, "one-point");
+  const std::string type = errorOf([&] { h.setup(s, sticky); });
+  EXPECT_NE(type.find("scene.yaml:20"), std::string::npos) << type;
+  EXPECT_NE(type.find("hourglass.type must be stiffness or viscous"), std::string::npos) << type;
 }
 
 TEST(FemSolverAdapter, UnknownKeyNamesKeyAndLine) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <sstream>
 
 namespace cosim::fem {
 
@@ -99,6 +100,44 @@ void Mesh::validate() const {
     if (!std::isfinite(X[n])) throw InputError("node " + std::to_string(n / 3) + " has a non-finite coordinate");
   for (std::size_t n = 0; n < used.size(); ++n)
     if (!used[n]) throw InputError("node " + std::to_string(n) + " belongs to no element");
+}
+
+std::vector<std::pair<Index, Index>> matchPeriodicNodes(const Mesh& mesh, const std::vector<Index>& minNodes,
+                                                        const std::vector<Index>& maxNodes, const Vec3& offset,
+                                                        double tol) {
+  // Sort the min-face nodes along the coordinate in which the face is widest,
+  // then search a +-tol window: O(n log n) instead of all pairs.
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (Index n : minNodes) {
+    lo = lo.cwiseMin(mesh.node(n));
+    hi = hi.cwiseMax(mesh.node(n));
+  }
+  int key = 0;
+  (hi - lo).maxCoeff(&key);
+  std::vector<std::pair<double, Index>> sorted;
+  sorted.reserve(minNodes.size());
+  for (Index n : minNodes) sorted.emplace_back(mesh.node(n)[key], n);
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<std::pair<Index, Index>> pairs;
+  pairs.reserve(maxNodes.size());
+  for (Index s : maxNodes) {
+    const Vec3 target = mesh.node(s) - offset;
+    auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(target[key] - tol, Index{0}));
+    Index partner = s;
+    for (; it != sorted.end() && it->first <= target[key] + tol; ++it)
+      if ((mesh.node(it->second) - target).cwiseAbs().maxCoeff() <= tol) {
+        partner = it->second;
+        break;
+      }
+    if (partner == s) {
+      std::ostringstream msg;
+      msg << "periodic node " << s << " at (" << mesh.node(s).transpose() << ") has no partner at ("
+          << target.transpose() << ") within " << tol;
+      throw InputError(msg.str());
+    }
+    pairs.emplace_back(s, partner);
+  }
+  return pairs;
 }
 
 Mesh makeBoxMesh(const Vec3& lo, const Vec3& hi, const std::array<int, 3>& n) {

@@ -153,9 +153,150 @@ void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double a
     fixed_[dof] = 1;
     prescribed_.push_back(p);
   }
+  rebuildDofMap();
+}
+
+namespace {
+/// A jump amplitude with its time function; sums need one time function
+/// (a zero amplitude goes with any).
+struct Jump {
+  double amplitude = 0.0;
+  Prescribed::Kind kind = Prescribed::Kind::displacement;
+  double ramp = 0.0;
+  bool compatible(const Jump& o) const {
+    return amplitude == 0.0 || o.amplitude == 0.0 || (kind == o.kind && ramp == o.ramp);
+  }
+  Jump plus(const Jump& o, double sign) const {
+    Jump r = amplitude == 0.0 ? o : *this;
+    r.amplitude = amplitude + sign * o.amplitude;
+    return r;
+  }
+};
+}  // namespace
+
+void Model::tie(const std::vector<std::pair<Index, Index>>& pairs, const Vec3& jump, Prescribed::Kind kind,
+                double ramp) {
+  if (!jump.allFinite()) throw InputError("periodic jump is not finite");
+  for (const auto& [slave, master] : pairs) {
+    if (slave >= numNodes() || master >= numNodes() || slave == master)
+      throw InputError("periodic tie between nodes " + std::to_string(slave) + " and " + std::to_string(master) +
+                       " is out of range or ties a node to itself");
+    ties_.push_back({slave, master, jump, kind, ramp});
+  }
+  rebuildDofMap();
+}
+
+void Model::rebuildDofMap() {
+  // Union-find with offsets: u[d] = u[parent[d]] + offset[d]. Each tie
+  // u_s = u_m + j joins the two trees; the root of a tree is its independent
+  // dof, a prescribed one where the tree holds one.
+  const std::size_t nd = numDofs();
+  std::vector<std::size_t> parent(nd);
+  std::vector<Jump> offset(nd);
+  for (std::size_t d = 0; d < nd; ++d) parent[d] = d;
+  auto find = [&](std::size_t d, Jump& total) {
+    total = Jump{};
+    while (parent[d] != d) {
+      total = total.plus(offset[d], 1.0);
+      d = parent[d];
+    }
+    return d;
+  };
+  for (const Tie& t : ties_)
+    for (std::size_t i = 0; i < 3; ++i) {
+      const Jump j{t.jump[static_cast<int>(i)], t.kind, t.ramp};
+      Jump js, jm;
+      const std::size_t rs = find(3 * t.slave + i, js), rm = find(3 * t.master + i, jm);
+      const std::string where = "periodic tie of node " + std::to_string(t.slave) + " to node " +
+                                std::to_string(t.master) + " direction " + "xyz"[i];
+      // u_rs + js = u_rm + jm + j
+      const Jump rel = jm.plus(j, 1.0);
+      if (!rel.compatible(js)) throw InputError(where + ": jumps with different ramps or kinds meet here");
+      const Jump diff = rel.plus(js, -1.0);  // u_rs = u_rm + diff
+      if (rs == rm) {
+        if (std::abs(diff.amplitude) > 1e-12 * (std::abs(js.amplitude) + std::abs(rel.amplitude)) + 1e-300)
+          throw InputError(where + ": closes a loop with a net jump of " + std::to_string(diff.amplitude));
+        continue;
+      }
+      if (fixed_[rs] && fixed_[rm]) continue;  // both prescribed: the prescriptions win
+      if (fixed_[rs]) {
+        parent[rm] = rs;
+        offset[rm] = Jump{}.plus(diff, -1.0);
+      } else {
+        parent[rs] = rm;
+        offset[rs] = diff;
+      }
+    }
+  slaves_.clear();
+  std::vector<std::size_t> root(nd);
+  for (std::size_t d = 0; d < nd; ++d) {
+    Jump total;
+    root[d] = find(d, total);
+    if (root[d] != d) slaves_.push_back({d, root[d], Prescribed{d, total.kind, total.amplitude, total.ramp}});
+  }
   int next = 0;
-  for (std::size_t d = 0; d < numDofs(); ++d) dofMap_[d] = fixed_[d] ? -1 : next++;
+  for (std::size_t d = 0; d < nd; ++d)
+    if (root[d] == d) dofMap_[d] = fixed_[d] ? -1 : next++;
+  for (const SlaveDof& s : slaves_) dofMap_[s.dof] = dofMap_[s.master];
   numFree_ = next;
+}
+
+void Model::enforceSlaves(double t, std::vector<double>& u, std::vector<double>* v) const {
+  for (const SlaveDof& s : slaves_) {
+    u[s.dof] = u[s.master] + s.jump.displacement(t);
+    if (v) (*v)[s.dof] = (*v)[s.master] + s.jump.velocity(t);
+  }
+}
+
+void Model::applyConstraints(double t, std::vector<double>& u, std::vector<double>* v) const {
+  for (const Prescribed& p : prescribed_) {
+    u[p.dof] = p.displacement(t);
+    if (v) (*v)[p.dof] = p.velocity(t);
+  }
+  enforceSlaves(t, u, v);
+}
+
+void Model::reduce(const std::vector<double>& full, Eigen::VectorXd& reduced) const {
+  reduced.setZero(numFree_);
+  for (std::size_t d = 0; d < dofMap_.size(); ++d)
+    if (dofMap_[d] >= 0) reduced(dofMap_[d]) += full[d];
+}
+
+std::vector<double> Model::constrainedLumpedMass() const {
+  std::vector<double> m(numDofs());
+  for (std::size_t d = 0; d < m.size(); ++d) m[d] = lumpedMass_[d / 3];
+  for (const SlaveDof& s : slaves_) {
+    m[s.master] += m[s.dof];
+    m[s.dof] = 0.0;
+  }
+  return m;
+}
+
+double Model::constrainedAcceleration(const std::vector<double>& r, std::vector<double>& a) const {
+  std::vector<double>& rs = reducedForce_;
+  rs = r;
+  std::vector<double> m = constrainedLumpedMass();
+  for (const SlaveDof& s : slaves_) rs[s.master] += rs[s.dof];
+  double r2 = 0.0;
+  a.resize(r.size());
+  for (std::size_t d = 0; d < r.size(); ++d) {
+    if (dofMap_[d] < 0 || m[d] == 0.0) {
+      a[d] = 0.0;
+      continue;
+    }
+    a[d] = rs[d] / m[d];
+    r2 += rs[d] * rs[d];
+  }
+  for (const SlaveDof& s : slaves_) a[s.dof] = a[s.master];
+  return r2;
+}
+
+void Model::addTieReactions(const std::vector<double>& res, std::vector<double>& fApplied) const {
+  for (const SlaveDof& s : slaves_) {
+    if (dofMap_[s.dof] < 0) continue;  // prescribed master: the caller's reaction covers it
+    fApplied[s.dof] += res[s.dof];
+    fApplied[s.master] -= res[s.dof];
+  }
 }
 
 void Model::addTraction(const std::vector<Quad>& faces, const Vec3& traction) {
@@ -248,6 +389,31 @@ void Model::internalForce(const std::vector<double>& u, std::vector<double>& f, 
     elementEnergy_[2 * el + 1] = en.hourglass;
   }
   errors.rethrow();
+  gatherElementForces(f);
+  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
+    energy.strain += elementEnergy_[2 * e];
+    energy.hourglass += elementEnergy_[2 * e + 1];
+  }
+}
+
+bool Model::viscousForce(const std::vector<double>& v, std::vector<double>& f) const {
+  if (!formulation_->hasViscousForce()) {
+    f.assign(numDofs(), 0.0);
+    return false;
+  }
+  const long ne = static_cast<long>(mesh_.numElements());
+#pragma omp parallel for schedule(static) if (ne > kParallelElements)
+  for (long e = 0; e < ne; ++e) {
+    const std::size_t el = static_cast<std::size_t>(e);
+    Vec24 fe;
+    formulation_->viscousForce(el, gather(el, v), fe);
+    std::copy(fe.data(), fe.data() + 24, elementForces_.data() + 24 * el);
+  }
+  gatherElementForces(f);
+  return true;
+}
+
+void Model::gatherElementForces(std::vector<double>& f) const {
   // Gather per node in a fixed order: results independent of the thread count.
   f.assign(numDofs(), 0.0);
   const long nn = static_cast<long>(numNodes());
@@ -261,10 +427,6 @@ void Model::internalForce(const std::vector<double>& u, std::vector<double>& f, 
       s[2] += fe[2];
     }
     for (int i = 0; i < 3; ++i) f[3 * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] = s[i];
-  }
-  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
-    energy.strain += elementEnergy_[2 * e];
-    energy.hourglass += elementEnergy_[2 * e + 1];
   }
 }
 

@@ -23,7 +23,7 @@ using Code = proto::Error::Code;
 
 namespace {
 
-constexpr std::uint64_t kCheckpointMagic = 0x31504b4320454546ULL;  // "FEE CKP1"
+constexpr std::uint64_t kCheckpointMagic = 0x32504b4320454546ULL;  // "FEE CKP2": + hourglass dissipation
 
 YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
   YAML::Node root;
@@ -80,6 +80,29 @@ int directionIndex(const std::string& s) {
   return -1;
 }
 
+/// `hourglass: 0.05` (stiffness type, the old form) or
+/// `hourglass: {type: stiffness | viscous, coefficient: 0.05}`.
+FormulationOptions readHourglass(ParamMap& p, const std::string& formulation) {
+  FormulationOptions fo;
+  if (!p.has("hourglass")) return fo;
+  YAML::Node h = p.get("hourglass");
+  if (h.IsMap()) {
+    ParamMap hm(h, p.file(), p.path() + ".hourglass");
+    const std::string type = hm.text("type", "stiffness");
+    if (type != "stiffness" && type != "viscous") hm.fail(hm.get("type"), hm.path() + ".type must be stiffness or viscous");
+    fo.hourglassType = type == "viscous" ? FormulationOptions::Hourglass::viscous : FormulationOptions::Hourglass::stiffness;
+    fo.hourglassCoefficient = hm.number("coefficient", fo.hourglassCoefficient);
+    if (fo.hourglassCoefficient < 0.0) hm.fail(hm.get("coefficient"), hm.path() + ".coefficient must be >= 0");
+    hm.finish();
+    if (formulation != "one-point")
+      p.fail(h, p.path() + ".hourglass applies to formulation one-point only (formulation is " + formulation + ")");
+    return fo;
+  }
+  fo.hourglassCoefficient = p.number("hourglass");
+  if (fo.hourglassCoefficient < 0.0) p.fail(h, p.path() + ".hourglass must be >= 0");
+  return fo;
+}
+
 }  // namespace
 
 FemSolver::FemSolver() = default;
@@ -121,9 +144,8 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     const std::string matName = mat.text("model", "st-venant-kirchhoff");
     MaterialParams mp{mat.number("E"), mat.number("nu"), mat.number("density")};
     mat.finish();
-    FormulationOptions fo;
-    fo.hourglassCoefficient = p.number("hourglass", fo.hourglassCoefficient);
     const std::string formName = p.text("formulation", "full");
+    const FormulationOptions fo = readHourglass(p, formName);
     std::unique_ptr<Material> material;
     std::unique_ptr<ElementFormulation> formulation;
     try {
@@ -168,6 +190,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
                               value, ramp);
       }
     }
+    if (p.has("periodic")) readPeriodic(p);
     // Loads.
     if (p.has("loads")) {
       YAML::Node list = p.get("loads");
@@ -233,6 +256,9 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     } else {
       in.fail(in.get("type"), in.path() + ".type must be newmark, central-difference, static or dynamic-relaxation");
     }
+    if (model_->formulation().hasViscousForce() && integratorType_ != "central-difference")
+      in.fail(in.get("type"), in.path() + ".type is " + integratorType_ +
+                                  ", but viscous hourglass control needs central-difference (use hourglass type stiffness)");
     in.finish();
     // Arlequin weighting 1 - w (Cheng 2022 Eq. 25): a profile sent by the
     // coupler at setup wins over one in the params.
@@ -323,6 +349,55 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     throw SolverError(Code::BAD_INPUT, e.what());
   } catch (const SolveError& e) {
     throw SolverError(Code::SOLVER_FAILURE, e.what());
+  }
+}
+
+void FemSolver::readPeriodic(ParamMap& p) {
+  YAML::Node list = p.get("periodic");
+  if (!list.IsSequence()) p.fail(list, p.path() + ".periodic must be a list");
+  const Mesh& mesh = model_->mesh();
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (std::size_t n = 0; n < mesh.numNodes(); ++n) {
+    lo = lo.cwiseMin(mesh.node(static_cast<Index>(n)));
+    hi = hi.cwiseMax(mesh.node(static_cast<Index>(n)));
+  }
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    ParamMap e(list[i], p.file(), p.path() + ".periodic[" + std::to_string(i) + "]");
+    const double tol = e.number("tolerance", 1e-8 * (hi - lo).norm());
+    std::vector<Index> minNodes, maxNodes;
+    Vec3 offset = Vec3::Zero();
+    if (e.has("axis")) {  // the two faces of the bounding box normal to the axis
+      const int axis = directionIndex(e.text("axis"));
+      if (axis < 0) e.fail(e.get("axis"), e.path() + ".axis must be x, y or z");
+      offset[axis] = hi[axis] - lo[axis];
+      for (std::size_t n = 0; n < mesh.numNodes(); ++n) {
+        const double x = mesh.X[3 * n + static_cast<std::size_t>(axis)];
+        if (x <= lo[axis] + tol) minNodes.push_back(static_cast<Index>(n));
+        if (x >= hi[axis] - tol) maxNodes.push_back(static_cast<Index>(n));
+      }
+      if (e.has("offset")) offset = e.vec3("offset");
+    } else if (e.has("min") && e.has("max")) {  // named node sets, offset required
+      try {
+        minNodes = mesh.nodeSet(e.text("min"), e.path() + ".min");
+        maxNodes = mesh.nodeSet(e.text("max"), e.path() + ".max");
+      } catch (const InputError& ex) {
+        e.fail(e.node(), ex.what());
+      }
+      offset = e.vec3("offset");
+    } else {
+      e.fail(e.node(), e.path() + " needs 'axis' (x, y or z) or the node sets 'min' and 'max' with an 'offset'");
+    }
+    const Vec3 jump = e.has("jump") ? e.vec3("jump") : Vec3::Zero();
+    const std::string kind = e.text("kind", "displacement");
+    if (kind != "displacement" && kind != "velocity") e.fail(e.get("kind"), e.path() + ".kind must be displacement or velocity");
+    const double ramp = e.number("ramp", 0.0);
+    e.finish();
+    try {
+      model_->tie(matchPeriodicNodes(mesh, minNodes, maxNodes, offset, tol), jump,
+                  kind == "velocity" ? Prescribed::Kind::velocity : Prescribed::Kind::displacement, ramp);
+    } catch (const InputError& ex) {
+      e.fail(e.node(), e.path() + ": " + ex.what());
+    }
   }
 }
 
@@ -498,7 +573,8 @@ std::uint64_t FemSolver::checkpoint(const std::string& path) {
   put(&state_.time, 8);
   put(&state_.step, 8);
   put(&state_.externalWork, 8);
-  for (const auto* v : {&state_.u, &state_.v, &state_.a, &state_.fApplied}) put(v->data(), 8 * v->size());
+  put(&state_.hourglassDissipated, 8);
+  for (const auto* v : {&state_.u, &state_.v, &state_.a, &state_.fApplied, &state_.fViscous}) put(v->data(), 8 * v->size());
   if (external_) {  // GMH state: corotational stresses and F at the last exchange
     put(external_->stresses().data(), 8 * external_->stresses().size());
     put(pointF_.data(), 8 * pointF_.size());
@@ -529,7 +605,8 @@ void FemSolver::restore(const std::string& path) {
   get(&s.time, 8);
   get(&s.step, 8);
   get(&s.externalWork, 8);
-  for (auto* v : {&s.u, &s.v, &s.a, &s.fApplied}) get(v->data(), 8 * v->size());
+  get(&s.hourglassDissipated, 8);
+  for (auto* v : {&s.u, &s.v, &s.a, &s.fApplied, &s.fViscous}) get(v->data(), 8 * v->size());
   if (external_) {
     get(external_->stresses().data(), 8 * external_->stresses().size());
     get(pointF_.data(), 8 * pointF_.size());
@@ -552,7 +629,11 @@ wire::NamedValues FemSolver::energies() const {
     e.strain = ee.strain;
     e.hourglass = ee.hourglass;
   }
-  return {{"kinetic", e.kinetic}, {"strain", e.strain}, {"hourglass", e.hourglass}, {"external_work", e.externalWork}};
+  return {{"kinetic", e.kinetic},
+          {"strain", e.strain},
+          {"hourglass", e.hourglass},
+          {"hourglass_dissipated", e.hourglassDissipated},
+          {"external_work", e.externalWork}};
 }
 
 std::size_t FemSolver::outputWordsHint() const { return model_ ? 10 * model_->numDofs() + 1024 : 1024; }

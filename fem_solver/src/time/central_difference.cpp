@@ -4,7 +4,13 @@
 //   a_{n+1} = M^-1 (f_ext - f_int(u_{n+1}) - alpha M v_{n+1/2}),
 //   v_{n+1} = v_{n+1/2} + dt/2 a_{n+1}.
 // Mass-proportional damping alpha enters with the half-step velocity, which
-// keeps the scheme explicit; the critical step is Liu Eq. 65.
+// keeps the scheme explicit; the critical step is Liu Eq. 65. Viscous
+// hourglass forces (one-point element) enter the same way, with v_{n+1/2};
+// their work is integrated with the trapezoidal rule like the external work,
+// so kinetic + strain + dissipated = external work up to the O(dt^2) term of
+// the scheme. Periodic slave dofs move with their masters (forces and lumped
+// masses summed onto the master, Model::constrainedAcceleration) and get the
+// prescribed jump exactly at every step.
 #include "cosim/fem/time/integrator.hpp"
 
 namespace cosim::fem {
@@ -20,13 +26,15 @@ class CentralDifference final : public Integrator {
   void initialise(State& state) override {
     applyPrescribed(state, state.time);
     criticalDt_ = model_.criticalTimeStep(options_.damping);
-    std::vector<double> fint, fext;
+    std::vector<double> fint, fext, fvisc;
     ElementEnergy en;
     model_.internalForce(state.u, fint, en);
     model_.externalForce(state.time, fext);
     model_.addFollowerLoads(state.time, state.u, fext);
-    acceleration(state, fint, fext, state.v);
+    model_.viscousForce(state.v, fvisc);
+    acceleration(state, fint, fext, fvisc, state.v);
     state.fApplied = fext;
+    state.fViscous = fvisc;
   }
   double criticalDt() const override { return criticalDt_; }
 
@@ -47,6 +55,8 @@ class CentralDifference final : public Integrator {
       state.u[p.dof] = p.displacement(t1);
       state.v[p.dof] = (state.u[p.dof] - uOld_[p.dof]) / dt;
     }
+    model_.enforceSlaves(t1, state.u, nullptr);
+    for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = (state.u[s.dof] - uOld_[s.dof]) / dt;
     model_.checkFinite(state.u, "displacement");
     state.time = t1;
     ++state.step;
@@ -59,27 +69,49 @@ class CentralDifference final : public Integrator {
     model_.internalForce(state.u, fint_, en);
     model_.externalForce(t1, fext_);
     model_.addFollowerLoads(t1, state.u, fext_);
-    acceleration(state, fint_, fext_, state.v);
+    model_.viscousForce(state.v, fvisc_);  // at v_{n+1/2}
+    acceleration(state, fint_, fext_, fvisc_, state.v);
+    // Constraint forces (prescribed dofs and periodic ties) join the external
+    // work: res = M a + f_int + f_visc + alpha M v - f_ext per dof.
+    const auto& m = model_.lumpedMass();
+    res_.resize(n);
+    for (std::size_t d = 0; d < n; ++d)
+      res_[d] = m[d / 3] * (state.a[d] + options_.damping * state.v[d]) + fint_[d] + fvisc_[d] - fext_[d];
     for (std::size_t d = 0; d < n; ++d) state.v[d] += 0.5 * dt * state.a[d];
     for (const Prescribed& p : model_.prescribed()) state.v[p.dof] = p.velocity(t1);
+    for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = state.v[s.master] + s.jump.velocity(t1);
     model_.checkFinite(state.v, "velocity");
-    // Reactions at prescribed dofs join the external work.
-    for (const Prescribed& p : model_.prescribed()) fext_[p.dof] = fint_[p.dof];
+    const auto& map = model_.dofMap();
+    for (std::size_t d = 0; d < n; ++d)
+      if (map[d] < 0) fext_[d] = fint_[d] + fvisc_[d];
+    model_.addTieReactions(res_, fext_);
+    accumulateHourglassDissipation(state);
     accumulateWork(state, uOld_, fext_);
   }
 
  private:
   void acceleration(State& state, const std::vector<double>& fint, const std::vector<double>& fext,
-                    const std::vector<double>& vHalf) const {
+                    const std::vector<double>& fvisc, const std::vector<double>& vHalf) {
     const auto& m = model_.lumpedMass();
     const double alpha = options_.damping;
     const std::size_t n = state.u.size();
-    for (std::size_t d = 0; d < n; ++d)
-      state.a[d] = model_.isFixed(d) ? 0.0 : (fext[d] - fint[d]) / m[d / 3] - alpha * vHalf[d];
+    net_.resize(n);
+    for (std::size_t d = 0; d < n; ++d) net_[d] = fext[d] - fint[d] - fvisc[d] - alpha * m[d / 3] * vHalf[d];
+    model_.constrainedAcceleration(net_, state.a);
+  }
+  /// Trapezoidal work of the viscous hourglass forces over the step (the
+  /// forces resist the motion, so this is the energy they removed).
+  void accumulateHourglassDissipation(State& state) const {
+    if (!model_.formulation().hasViscousForce()) return;
+    double w = 0.0;
+    for (std::size_t d = 0; d < fvisc_.size(); ++d)
+      w += 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - uOld_[d]);
+    state.hourglassDissipated += w;
+    state.fViscous = fvisc_;
   }
   CentralDifferenceOptions options_;
   double criticalDt_ = 0.0;
-  std::vector<double> uOld_, fint_, fext_;
+  std::vector<double> uOld_, fint_, fext_, fvisc_, res_, net_;
 };
 
 }  // namespace

@@ -14,10 +14,11 @@
 namespace cosim::fem {
 
 NewtonReport relaxStatic(Model& model, State& state, const RelaxationOptions& options) {
+  requireNoViscousForces(model, "dynamic relaxation");
   const double dt = 0.9 * model.criticalTimeStep(0.0);
   if (!(dt > 0.0)) throw SolveError("dynamic relaxation: no finite critical step");
-  for (const Prescribed& p : model.prescribed()) state.u[p.dof] = p.displacement(state.time);
-  std::vector<double> fint, fext, v(state.u.size(), 0.0), a(state.u.size(), 0.0);
+  model.applyConstraints(state.time, state.u, nullptr);
+  std::vector<double> fint, fext, v(state.u.size(), 0.0), a(state.u.size(), 0.0), net(state.u.size());
   std::vector<double> fdead;
   model.externalForce(state.time, fdead);
   const auto& m = model.lumpedMass();
@@ -28,17 +29,12 @@ NewtonReport relaxStatic(Model& model, State& state, const RelaxationOptions& op
     model.addFollowerLoads(state.time, state.u, fext);
     ElementEnergy en;
     model.internalForce(state.u, fint, en);
-    double r2 = 0.0, s2 = 0.0;
+    double s2 = 0.0;
     for (std::size_t d = 0; d < fint.size(); ++d) {
       s2 += fint[d] * fint[d] + fext[d] * fext[d];
-      if (model.isFixed(d)) {
-        a[d] = 0.0;
-        continue;
-      }
-      const double r = fext[d] - fint[d];
-      r2 += r * r;
-      a[d] = r / m[d / 3];
+      net[d] = fext[d] - fint[d];
     }
+    const double r2 = model.constrainedAcceleration(net, a);  // free dofs, periodic slaves on their masters
     return std::sqrt(r2) / (std::sqrt(s2) + 1e-300);
   };
   double ratio = forces();
@@ -57,6 +53,7 @@ NewtonReport relaxStatic(Model& model, State& state, const RelaxationOptions& op
     }
     keOld = ke;
     for (std::size_t d = 0; d < v.size(); ++d) state.u[d] += dt * v[d];
+    model.enforceSlaves(state.time, state.u, nullptr);
     model.checkFinite(state.u, "displacement (dynamic relaxation)");
     ratio = forces();
   }

@@ -3,10 +3,7 @@
 namespace cosim::fem {
 
 void Integrator::applyPrescribed(State& state, double t) const {
-  for (const Prescribed& p : model_.prescribed()) {
-    state.u[p.dof] = p.displacement(t);
-    state.v[p.dof] = p.velocity(t);
-  }
+  model_.applyConstraints(t, state.u, &state.v);
 }
 
 void Integrator::accumulateWork(State& state, const std::vector<double>& uOld, const std::vector<double>& fNew) const {
@@ -14,6 +11,12 @@ void Integrator::accumulateWork(State& state, const std::vector<double>& uOld, c
   for (std::size_t d = 0; d < fNew.size(); ++d) w += 0.5 * (state.fApplied[d] + fNew[d]) * (state.u[d] - uOld[d]);
   state.externalWork += w;
   state.fApplied = fNew;
+}
+
+void requireNoViscousForces(const Model& model, const std::string& solver) {
+  if (model.formulation().hasViscousForce())
+    throw InputError(solver + ": viscous hourglass control needs the central-difference integrator "
+                     "(use hourglass type stiffness here)");
 }
 
 void Integrator::predict(State&, double) {
@@ -32,6 +35,7 @@ Energies Integrator::energies(const State& state) const {
   en.hourglass = ee.hourglass;
   en.kinetic = model_.kineticEnergy(state.v, lumpedMass_);
   en.externalWork = state.externalWork;
+  en.hourglassDissipated = state.hourglassDissipated;
   return en;
 }
 

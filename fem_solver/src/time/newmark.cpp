@@ -6,6 +6,10 @@
 // gamma = 1/2 (trapezoidal rule) conserves energy for linear systems.
 // With options.linear, f_int = K_0 u (K_0 the tangent at u = 0, on all dofs)
 // and the strain energy is u^T K_0 u / 2: small-strain linear elastodynamics.
+// Periodic ties: residuals are reduced onto independent dofs (T^T R), the
+// system matrices are assembled through the dof map (T^T A T), and a slave's
+// acceleration differs from its master's by a constant per step chosen so
+// that u_s = u_m + jump(t_{n+1}) holds exactly.
 #include "cosim/fem/time/integrator.hpp"
 #include <cmath>
 
@@ -20,6 +24,7 @@ class Newmark final : public Integrator {
     if (!(options.beta > 0.0) || !(options.gamma >= 0.5))
       throw InputError("newmark: need beta > 0 and gamma >= 1/2");
     lumpedMass_ = options.lumpedMass;
+    requireNoViscousForces(model, "newmark");
     solver_ = makeLinearSolver(options.newton.linearSolver);
   }
   std::string name() const override { return "newmark"; }
@@ -36,14 +41,11 @@ class Newmark final : public Integrator {
     model_.externalForce(state.time, fext);
     model_.addFollowerLoads(state.time, state.u, fext);
     const auto& map = model_.dofMap();
-    Eigen::VectorXd r(model_.numFree());
-    for (std::size_t d = 0; d < map.size(); ++d)
-      if (map[d] >= 0) r(map[d]) = fext[d] - fint[d];
-    Eigen::VectorXd a0;
+    for (std::size_t d = 0; d < fint.size(); ++d) fint[d] = fext[d] - fint[d];
+    Eigen::VectorXd r, a0;
+    model_.reduce(fint, r);
     if (lumpedMass_) {
-      a0.resize(r.size());
-      for (std::size_t d = 0; d < map.size(); ++d)
-        if (map[d] >= 0) a0(map[d]) = r(map[d]) / model_.lumpedMass()[d / 3];
+      a0 = r.cwiseQuotient(reducedLumpedMass());
     } else {
       auto massSolver = makeLinearSolver("direct");
       massSolver->factorize(M_.matrix());
@@ -70,12 +72,17 @@ class Newmark final : public Integrator {
     const double c0 = 1.0 / (beta * dt * dt);
     for (std::size_t d = 0; d < n; ++d) state.a[d] = 0.0;
     for (const Prescribed& p : model_.prescribed()) state.a[p.dof] = c0 * (p.displacement(t1) - uPred[p.dof]);
+    // Newton adds the same increments to a slave and its master, so this
+    // offset keeps u_s - u_m = jump(t1) throughout.
+    for (const SlaveDof& s : model_.slaves())
+      state.a[s.dof] = state.a[s.master] + c0 * (s.jump.displacement(t1) + uPred[s.master] - uPred[s.dof]);
     auto updateKinematics = [&] {
       for (std::size_t d = 0; d < n; ++d) {
         state.u[d] = uPred[d] + state.a[d] / c0;
         state.v[d] = vPred[d] + gamma * dt * state.a[d];
       }
       for (const Prescribed& p : model_.prescribed()) state.u[p.dof] = p.displacement(t1);
+      model_.enforceSlaves(t1, state.u, nullptr);
     };
     const auto& map = model_.dofMap();
     std::vector<double> fint, fext, fdead, Ma;
@@ -102,15 +109,12 @@ class Newmark final : public Integrator {
       double* av = A_.matrix().valuePtr();
       const double* mv = M_.matrix().valuePtr();
       if (lumpedMass_) {
-        const auto& lm = model_.lumpedMass();
         const int* outer = A_.matrix().outerIndexPtr();
         const int* inner = A_.matrix().innerIndexPtr();
-        std::vector<double> diag(static_cast<std::size_t>(model_.numFree()));
-        for (std::size_t d = 0; d < map.size(); ++d)
-          if (map[d] >= 0) diag[static_cast<std::size_t>(map[d])] = lm[d / 3];
+        const Eigen::VectorXd diag = reducedLumpedMass();
         for (int c = 0; c < A_.size(); ++c)
           for (int k = outer[c]; k < outer[c + 1]; ++k)
-            if (inner[k] == c) av[k] += c0 * diag[static_cast<std::size_t>(c)];
+            if (inner[k] == c) av[k] += c0 * diag(c);
       } else {
         for (long k = 0; k < A_.matrix().nonZeros(); ++k) av[k] += c0 * mv[k];
       }
@@ -136,9 +140,12 @@ class Newmark final : public Integrator {
     updateKinematics();
     model_.checkFinite(state.u, "displacement");
     // Applied forces: external on free dofs, reactions on prescribed dofs.
-    std::vector<double> fApplied = fext;
-    for (std::size_t d = 0; d < map.size(); ++d)
+    std::vector<double> fApplied = fext, res(n);
+    for (std::size_t d = 0; d < map.size(); ++d) {
+      res[d] = Ma[d] + fint[d] - fext[d];
       if (map[d] < 0) fApplied[d] = Ma[d] + fint[d];
+    }
+    model_.addTieReactions(res, fApplied);  // periodic constraint forces
     accumulateWork(state, uOld, fApplied);
     state.time = t1;
     ++state.step;
@@ -190,17 +197,25 @@ class Newmark final : public Integrator {
   /// R = M a + f_int - f_ext on the free dofs; scale = |M a| + |f_int| + |f_ext| over all dofs.
   void residual(const State& state, const std::vector<double>& fint, const std::vector<double>& fext,
                 std::vector<double>& Ma, Eigen::VectorXd& R, double& scale) const {
-    const auto& map = model_.dofMap();
     model_.massTimes(state.a, Ma, lumpedMass_);
-    R.resize(model_.numFree());
+    std::vector<double> r(Ma.size());
     double s1 = 0, s2 = 0, s3 = 0;
-    for (std::size_t d = 0; d < map.size(); ++d) {
-      if (map[d] >= 0) R(map[d]) = Ma[d] + fint[d] - fext[d];
+    for (std::size_t d = 0; d < r.size(); ++d) {
+      r[d] = Ma[d] + fint[d] - fext[d];
       s1 += Ma[d] * Ma[d];
       s2 += fint[d] * fint[d];
       s3 += fext[d] * fext[d];
     }
+    model_.reduce(r, R);
     scale = std::sqrt(s1) + std::sqrt(s2) + std::sqrt(s3);
+  }
+
+  /// Lumped mass on the free dofs, slave masses summed onto their masters.
+  Eigen::VectorXd reducedLumpedMass() const {
+    const std::vector<double> m = model_.constrainedLumpedMass();
+    Eigen::VectorXd diag;
+    model_.reduce(m, diag);
+    return diag;
   }
 
   NewmarkOptions options_;

@@ -8,6 +8,7 @@
 namespace cosim::fem {
 
 NewtonReport solveStatic(Model& model, State& state, const NewtonOptions& options, int loadSteps) {
+  requireNoViscousForces(model, "static solve");
   SparseSystem K;
   K.build(model.mesh(), model.dofMap(), model.numFree());
   auto solver = makeLinearSolver(options.linearSolver);
@@ -18,7 +19,7 @@ NewtonReport solveStatic(Model& model, State& state, const NewtonOptions& option
   for (int ls = 1; ls <= loadSteps; ++ls) {
     // Load increments follow the load ramp: evaluate loads and prescribed values at a fraction of tEnd.
     const double t = tEnd * static_cast<double>(ls) / static_cast<double>(loadSteps);
-    for (const Prescribed& p : model.prescribed()) state.u[p.dof] = p.displacement(loadSteps > 1 ? t : tEnd);
+    model.applyConstraints(loadSteps > 1 ? t : tEnd, state.u, nullptr);  // prescribed values, periodic jumps
     std::vector<double> fdead;
     model.externalForce(loadSteps > 1 ? t : tEnd, fdead);
     auto linearise = [&](Eigen::VectorXd& R, double& scale, bool) {
@@ -26,13 +27,14 @@ NewtonReport solveStatic(Model& model, State& state, const NewtonOptions& option
       model.addFollowerLoads(loadSteps > 1 ? t : tEnd, state.u, fext);  // not in the tangent
       ElementEnergy en;
       model.assembleTangent(state.u, K, fint, en);
-      R.resize(model.numFree());
       double fe = 0.0, fi = 0.0;
+      std::vector<double> r(map.size());
       for (std::size_t d = 0; d < map.size(); ++d) {
         fe += fext[d] * fext[d];
         fi += fint[d] * fint[d];
-        if (map[d] >= 0) R(map[d]) = fint[d] - fext[d];
+        r[d] = fint[d] - fext[d];
       }
+      model.reduce(r, R);  // slave rows summed onto their masters
       scale = std::sqrt(fe) + std::sqrt(fi);
     };
     const std::vector<double> uStart = state.u;

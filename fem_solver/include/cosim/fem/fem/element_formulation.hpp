@@ -16,7 +16,11 @@
 namespace cosim::fem {
 
 struct FormulationOptions {
-  double hourglassCoefficient = 0.05;  // one-point quadrature, stiffness type
+  /// One-point quadrature: stiffness type (f = k Gamma Gamma^T u) or viscous
+  /// type (f = c Gamma Gamma^T v), Flanagan & Belytschko 1981.
+  enum class Hourglass { stiffness, viscous };
+  Hourglass hourglassType = Hourglass::stiffness;
+  double hourglassCoefficient = 0.05;
 };
 
 struct ElementEnergy {
@@ -40,6 +44,10 @@ class ElementFormulation {
   /// Internal force fe (24, node-major xyz), optional tangent, energies.
   virtual void evaluate(std::size_t e, const Mat83& ue, Vec24& fe, Mat24* Ke, ElementEnergy& energy) const = 0;
   virtual int pointsPerElement() const = 0;
+  /// Velocity-proportional element forces (viscous hourglass control).
+  virtual bool hasViscousForce() const { return false; }
+  /// Element force fe (24) at nodal velocities ve; zero without viscous forces.
+  virtual void viscousForce(std::size_t, const Mat83&, Vec24& fe) const { fe.setZero(); }
   /// Material point states of element e (pointsPerElement() entries).
   virtual void pointStates(std::size_t e, const Mat83& ue, MaterialPointState* out) const = 0;
 

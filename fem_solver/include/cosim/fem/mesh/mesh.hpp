@@ -41,6 +41,13 @@ class Mesh {
   void validate() const;
 };
 
+/// Periodic partner of every node in `maxNodes`: the node of `minNodes` at
+/// X - offset (within tol). Pairs are (max node, min node). Throws InputError
+/// naming the first node without a partner and its coordinates.
+std::vector<std::pair<Index, Index>> matchPeriodicNodes(const Mesh& mesh, const std::vector<Index>& minNodes,
+                                                        const std::vector<Index>& maxNodes, const Vec3& offset,
+                                                        double tol);
+
 /// Structured box [lo, hi] with n[0] x n[1] x n[2] elements. Defines node and
 /// face sets xmin, xmax, ymin, ymax, zmin, zmax and the node set "all".
 Mesh makeBoxMesh(const Vec3& lo, const Vec3& hi, const std::array<int, 3>& divisions);

@@ -28,6 +28,14 @@ struct Prescribed {
   double velocity(double t) const;
 };
 
+/// A periodic tie resolved to one dof: u[dof] = u[master] + jump(t), where
+/// master is an independent dof (free or prescribed) and the jump has the time
+/// function of Prescribed (amplitude = the jump component).
+struct SlaveDof {
+  std::size_t dof = 0, master = 0;
+  Prescribed jump;
+};
+
 /// Arlequin weight profile w(x): the formula shared with DEM and the coupler.
 using WeightProfile = util::WeightProfile;
 
@@ -36,6 +44,7 @@ struct Energies {
   double strain = 0.0;
   double hourglass = 0.0;
   double externalWork = 0.0;
+  double hourglassDissipated = 0.0;  // work of viscous hourglass forces (explicit)
 };
 
 class Model {
@@ -55,8 +64,44 @@ class Model {
   const std::vector<Prescribed>& prescribed() const { return prescribed_; }
   bool isFixed(std::size_t dof) const { return fixed_[dof] != 0; }
   /// Free-dof numbering: index into the reduced system, or -1 when prescribed.
+  /// A periodic slave dof carries its master's index (master-slave
+  /// elimination: assembly through this map sums slave rows and columns onto
+  /// the master, i.e. forms T^T K T for u = T u_independent + jump).
   const std::vector<int>& dofMap() const { return dofMap_; }
   int numFree() const { return numFree_; }
+
+  // --- periodic constraints --------------------------------------------------
+  /// Ties every dof of each node `slave` to node `master`: u_slave = u_master + jump(t)
+  /// (jump with the time function of Prescribed: ramp, or constant rate for
+  /// kind velocity). Chains (corners of two periodic directions) resolve to
+  /// one independent dof; a prescribed dof is always the independent one. A
+  /// tie between two prescribed dofs is dropped (the prescriptions win).
+  /// Throws InputError for inconsistent ties (a closed loop with a nonzero
+  /// net jump, or jumps with different time functions meeting at one node).
+  /// pairs: (slave, master) node ids, e.g. from matchPeriodicNodes.
+  void tie(const std::vector<std::pair<Index, Index>>& pairs, const Vec3& jump,
+           Prescribed::Kind kind = Prescribed::Kind::displacement, double ramp = 0.0);
+  const std::vector<SlaveDof>& slaves() const { return slaves_; }
+  /// Sets prescribed dofs, then slave dofs from their masters, at time t
+  /// (velocities too when v is given).
+  void applyConstraints(double t, std::vector<double>& u, std::vector<double>* v) const;
+  /// Slave dofs only: u_s = u_m + jump(t), v_s = v_m + jump'(t).
+  void enforceSlaves(double t, std::vector<double>& u, std::vector<double>* v) const;
+  /// Full (3 per node) vector into the reduced one: entries of slave dofs are
+  /// summed onto their master (T^T f), prescribed dofs dropped.
+  void reduce(const std::vector<double>& full, Eigen::VectorXd& reduced) const;
+  /// Explicit update with the lumped mass: the net force r (3 per node) and
+  /// masses of slaves are summed onto their masters, a = sum r / sum m there,
+  /// slaves copy their master's a, prescribed dofs get 0. Returns |T^T r|^2
+  /// over the free dofs.
+  double constrainedAcceleration(const std::vector<double>& r, std::vector<double>& a) const;
+  /// Lumped mass per dof after elimination: slave masses summed onto their
+  /// masters, 0 on slave dofs (sum unchanged: mass is conserved).
+  std::vector<double> constrainedLumpedMass() const;
+  /// Applied forces of the constrained system: with res = (inertia + f_int -
+  /// f_ext) per dof, a slave's constraint force res_s acts on it and -res_s
+  /// on its free master (their work is res_s * d jump).
+  void addTieReactions(const std::vector<double>& res, std::vector<double>& fApplied) const;
 
   // --- loads -----------------------------------------------------------------
   /// Dead nodal loads scaled by min(t / loadRamp, 1).
@@ -77,6 +122,10 @@ class Model {
   void externalForce(double t, std::vector<double>& f) const;
 
   // --- element loops ---------------------------------------------------------
+  /// Velocity-proportional element forces (viscous hourglass control of the
+  /// one-point element) at velocity v, 3 per node; false (f zero) when the
+  /// formulation has none.
+  bool viscousForce(const std::vector<double>& v, std::vector<double>& f) const;
   /// Internal force (3 per node) and energies at displacement u.
   void internalForce(const std::vector<double>& u, std::vector<double>& f, ElementEnergy& energy) const;
   /// Tangent (free-free block) and internal force; the system must have been built for this model.
@@ -108,6 +157,17 @@ class Model {
 
  private:
   void buildNodeIncidence();
+  void rebuildDofMap();
+  /// Sums elementForces_ per node (fixed order, thread-count independent).
+  void gatherElementForces(std::vector<double>& f) const;
+  struct Tie {
+    Index slave, master;
+    Vec3 jump;
+    Prescribed::Kind kind;
+    double ramp;
+  };
+  std::vector<Tie> ties_;
+  std::vector<SlaveDof> slaves_;
   void computeMass();
   /// 1 - w at the 2x2x2 Gauss points of element e (1 without a profile).
   double massWeight(std::size_t e, int q) const;
@@ -129,6 +189,7 @@ class Model {
   std::vector<Index> incidenceStart_, incidence_;  // node -> 8 e + a
   mutable std::vector<double> elementForces_;      // 24 per element
   mutable std::vector<double> elementEnergy_;      // 2 per element
+  mutable std::vector<double> reducedForce_;       // constrainedAcceleration buffer
   mutable std::vector<Mat24> tangentBuffer_;       // element tangents of one assembly chunk
   // Consistent element mass matrices (8 x 8 per element, scaled): constant in a
   // total Lagrangian model, so built once and rebuilt when the mass scale or the

@@ -12,6 +12,8 @@
 
 namespace cosim::fem {
 
+class ParamMap;
+
 class SnapshotWriter;
 class ExternalStressMaterial;
 class SurfaceExport;
@@ -42,6 +44,8 @@ class FemSolver final : public wire::Solver {
  private:
   void applyCouplingForces(proto::CouplingData::Reader inputs);
   void fillCouplingOutputs(proto::CouplingData::Builder outputs) const;
+  /// `periodic:` list: node pairs of opposite faces tied with an optional jump.
+  void readPeriodic(ParamMap& p);
   /// GMH: stresses of unit-cell results into the external material.
   void applyUnitCellResults(proto::CouplingData::Reader inputs);
   /// GMH: deformation gradients at all material points (9 per point, row-major).

@@ -15,14 +15,17 @@ namespace cosim::fem {
 struct State {
   std::vector<double> u, v, a;  // 3 per node
   std::vector<double> fApplied; // external + reaction forces at the last step (work integral)
+  std::vector<double> fViscous; // viscous hourglass forces at the last step (dissipation integral)
   double time = 0.0;
   std::uint64_t step = 0;
   double externalWork = 0.0;
+  double hourglassDissipated = 0.0;
   void resize(std::size_t dofs) {
     u.assign(dofs, 0.0);
     v.assign(dofs, 0.0);
     a.assign(dofs, 0.0);
     fApplied.assign(dofs, 0.0);
+    fViscous.assign(dofs, 0.0);
   }
 };
 
@@ -88,6 +91,10 @@ struct NewmarkOptions {
 struct CentralDifferenceOptions {
   double damping = 0.0;  // mass-proportional alpha [1/s]
 };
+
+/// Throws InputError when the model has velocity-dependent element forces
+/// (viscous hourglass control), which only the explicit integrator applies.
+void requireNoViscousForces(const Model& model, const std::string& solver);
 
 std::unique_ptr<Integrator> makeNewmark(Model& model, const NewmarkOptions& options);
 std::unique_ptr<Integrator> makeCentralDifference(Model& model, const CentralDifferenceOptions& options);
