@@ -7,3 +7,13 @@ if("dem" IN_LIST COSIM_SOLVERS AND "fem" IN_LIST COSIM_SOLVERS)
     TIMEOUT 300)
   add_dependencies(coupling_gmh_run_tests coupler dem_solver fem_solver dem_prepare_cell)
 endif()
+
+# Scene L2 in small: a 100-sphere cell, 30 coarse steps of compression and of
+# simple shear; GMH (one element, one worker) against the direct DEM test of
+# the same cell along the same path must agree within 2 % RMS of the peak.
+if("dem" IN_LIST COSIM_SOLVERS AND "fem" IN_LIST COSIM_SOLVERS AND COSIM_BUILD_BENCH)
+  # The corotational direct test must agree within 0.2 % (the loop, to round-off).
+  add_test(NAME coupling_gmh_l2_compare COMMAND ${CMAKE_SOURCE_DIR}/bench/gmh/l2_compare.sh 100 30 0.02)
+  set_tests_properties(coupling_gmh_l2_compare PROPERTIES TIMEOUT 300
+    ENVIRONMENT "COSIM_BIN=${CMAKE_BINARY_DIR}/bin;L2_WORK=${CMAKE_BINARY_DIR}/tests/gmh-l2")
+endif()
