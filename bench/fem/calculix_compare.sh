@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# fem_solver against CalculiX (Debian's calculix-ccx) on scene C1's beam:
+# the 0.8 x 0.8 x 12 m cantilever, 2 x 30 x 2 hexahedra, E = 1e8 Pa, nu = 0,
+# clamped at y = 0, a 100 N tip load as a uniform traction on the end face.
+# Same mesh, same consistent nodal loads; CalculiX C3D8I (incompatible modes)
+# and C3D8 (full integration), geometrically linear static step, against
+# fem_solver's incompatible-modes and full hexahedra (finite-strain
+# St. Venant-Kirchhoff static solve; at this load the rotation is 0.002 rad).
+# Prints the mean tip deflection of both codes, their difference, the
+# Timoshenko beam value and each code's wall time.
+#   bench/fem/calculix_compare.sh [BUILD_DIR] [DIVISIONS "nx ny nz"]   (default build, "2 30 2")
+# Installs Debian's calculix-ccx package when `ccx` is missing.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+build=$(cd "${1:-$root/build}" && pwd)
+read -r nx ny nz <<< "${2:-2 30 2}"
+if ! command -v ccx > /dev/null; then
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  echo "installing Debian's calculix-ccx package" >&2
+  $sudo apt-get install -y -qq calculix-ccx > /dev/null
+fi
+work=$(mktemp -d /tmp/ccx-compare.XXXXXX)
+cd "$work"
+
+# --- CalculiX inputs: nodes on the box grid, C3D8(I) in Abaqus node order,
+# consistent nodal forces of the 156.25 Pa end-face traction (bilinear faces).
+/usr/bin/python3 - "$nx" "$ny" "$nz" <<'PY'
+import sys
+nx, ny, nz = map(int, sys.argv[1:])
+X0, X1, Y1, Z1, traction = -0.4, 0.4, 12.0, 0.8, -156.25
+def nid(i, j, k): return 1 + i + (nx + 1) * (j + (ny + 1) * k)
+nodes = []
+for k in range(nz + 1):
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            nodes.append((nid(i, j, k), X0 + (X1 - X0) * i / nx, Y1 * j / ny, Z1 * k / nz))
+elements = []
+for k in range(nz):
+    for j in range(ny):
+        for i in range(nx):
+            elements.append([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
+                             nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)])
+area = (X1 - X0) / nx * Z1 / nz
+loads = {}
+for k in range(nz):
+    for i in range(nx):
+        for (a, b) in ((i, k), (i + 1, k), (i + 1, k + 1), (i, k + 1)):
+            n = nid(a, ny, b)
+            loads[n] = loads.get(n, 0.0) + traction * area / 4.0
+for etype in ("C3D8I", "C3D8"):
+    with open(f"cant_{etype}.inp", "w") as f:
+        f.write("*NODE\n")
+        for n in nodes: f.write(f"{n[0]}, {n[1]:.12g}, {n[2]:.12g}, {n[3]:.12g}\n")
+        f.write(f"*ELEMENT, TYPE={etype}, ELSET=EALL\n")
+        for e, c in enumerate(elements, 1): f.write(f"{e}, " + ", ".join(map(str, c)) + "\n")
+        f.write("*NSET, NSET=CLAMP\n")
+        f.write("\n".join(str(nid(i, 0, k)) for k in range(nz + 1) for i in range(nx + 1)) + "\n")
+        f.write("*NSET, NSET=TIP\n")
+        f.write("\n".join(str(nid(i, ny, k)) for k in range(nz + 1) for i in range(nx + 1)) + "\n")
+        f.write("*MATERIAL, NAME=BEAM\n*ELASTIC\n1.0e8, 0.0\n*DENSITY\n1309.\n")
+        f.write("*SOLID SECTION, ELSET=EALL, MATERIAL=BEAM\n")
+        f.write("*BOUNDARY\nCLAMP, 1, 3, 0.\n")
+        f.write("*STEP\n*STATIC\n*CLOAD\n")
+        for n, v in sorted(loads.items()): f.write(f"{n}, 3, {v:.12g}\n")
+        f.write("*NODE PRINT, NSET=TIP\nU\n*END STEP\n")
+PY
+
+tip_ccx() {  # mean U3 of the TIP nodes from the .dat file
+  /usr/bin/python3 - "$1" <<'PY'
+import sys
+vals, on = [], False
+for line in open(sys.argv[1]):
+    if "displacements" in line: on = True; continue
+    parts = line.split()
+    if on and len(parts) == 4:
+        try: vals.append(float(parts[3]))
+        except ValueError: pass
+print(sum(vals) / len(vals))
+PY
+}
+tip_fem() {  # mean z displacement of the ymax nodes in the last snapshot of beam.h5
+  /usr/bin/python3 - "$1" <<'PY'
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+x = f["/mesh/coordinates"][:].reshape(-1, 3)
+last = sorted(f["/snapshots"].keys(), key=int)[-1]
+u = f[f"/snapshots/{last}/displacement"][:].reshape(-1, 3)
+tip = np.isclose(x[:, 1], x[:, 1].max())
+print(u[tip, 2].mean())
+PY
+}
+now() { date +%s.%N; }
+
+E=1.0e8; I=$(python3 -c "print(0.8**4/12)"); G=$(python3 -c "print(1.0e8/2)")
+timo=$(python3 -c "P=100; L=12; E=1e8; I=0.8**4/12; A=0.64; G=E/2; k=5/6; print(-(P*L**3/(3*E*I) + P*L/(k*G*A)))")
+printf "%-20s %-16s %-16s %-10s %-10s %-10s\n" "formulation" "fem_solver [m]" "CalculiX [m]" "diff" "fem [s]" "ccx [s]"
+for pair in "incompatible-modes:C3D8I" "full:C3D8"; do
+  form=${pair%%:*}; etype=${pair##*:}
+  t0=$(now); ccx -i "cant_$etype" > "ccx_$etype.log" 2>&1; t1=$(now)
+  c=$(tip_ccx "cant_$etype.dat")
+  t2=$(now)
+  "$build/bin/coupler" run "$root/configs/fem/cantilever_static.yaml" --out "$work/fem_$form" --no-progress \
+    --set solvers.beam.params.formulation="$form" \
+    --set "solvers.beam.params.mesh.box.divisions=[$nx, $ny, $nz]" > "fem_$form.log" 2>&1
+  t3=$(now)
+  f=$(tip_fem "$work/fem_$form/beam.h5")
+  python3 -c "import sys; f, c, a, b, d, e = map(float, sys.argv[1:7]); print(f'{sys.argv[7]:<20s} {f:<16.6e} {c:<16.6e} {abs(f - c) / abs(c):<10.2e} {b - a:<10.2f} {e - d:<10.2f}')" \
+    "$f" "$c" "$t2" "$t3" "$t0" "$t1" "$form"
+done
+echo "Timoshenko (shear factor 5/6): $timo m; mesh $nx x $ny x $nz; runs in $work"
+echo "(fem_solver's time includes the coupler, process start-up and HDF5 output)"
