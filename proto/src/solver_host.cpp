@@ -241,7 +241,8 @@ struct SolverHost::Impl {
     solver.setup(ctx, done.initOutputs());
     setUp = true;
     done.setCriticalDt(solver.criticalDt());
-    fillEnergies(done.initEnergies(static_cast<unsigned>(solver.energies().size())), solver.energies());
+    const auto energies = solver.energies();  // may cost an element loop: once
+    fillEnergies(done.initEnergies(static_cast<unsigned>(energies.size())), energies);
     data.send(m);
   }
 

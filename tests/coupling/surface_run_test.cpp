@@ -56,19 +56,8 @@ TEST(SurfaceCouplingRun, ParticlesRestOnTheBeamAndTheMapBalancesTheContactForces
 
 TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {
   C1Run c1;
-  const auto scene = c1.dir / "dirac.yaml";
-  {
-    std::ifstream in(sourcePath("tests/coupling/c1_short.yaml"));
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string s = text.str();
-    s.replace(s.find("kernel: lucy"), 12, "kernel: dirac");
-    s.replace(s.find("width: 10d"), 10, "width: 0");
-    s.replace(s.find("order: coarse-first"), 19, "order: parallel");
-    s.replace(s.find("wall_kinematics: interpolated"), 29, "wall_kinematics: extrapolated");
-    std::ofstream(scene) << s;
-  }
-  const auto done = run({binary("coupler"), "run", scene.string(), "--out", (c1.dir / "run").string(), "--no-progress"}, 240.0);
+  const auto done = c1.run({"--set", "couplings.top.kernel=dirac", "--set", "couplings.top.width=0", "--set",
+                            "schedule.order=parallel", "--set", "couplings.top.wall_kinematics=extrapolated"});
   ASSERT_EQ(done.code, 0) << done.out << done.err;
   EXPECT_LT(c1.report()["errors"][0]["value"].get<double>(), 1e-4);
 }

@@ -32,9 +32,8 @@ struct WorkerJobs {
 struct GatheredResults {
   std::vector<std::uint32_t> ids, steps;
   std::vector<double> stresses, porosities, coordination, indices;
-  void resize(std::size_t n) {
-    ids.resize(n), steps.resize(n), stresses.resize(9 * n), porosities.resize(n), coordination.resize(n),
-        indices.resize(n);
+  void clear() {
+    ids.clear(), steps.clear(), stresses.clear(), porosities.clear(), coordination.clear(), indices.clear();
   }
 };
 
@@ -144,7 +143,7 @@ class GmhCoupling final : public Coupling {
   }
 
   void gatherFrom(const ExchangeContext& ctx) {
-    gathered_.resize(0);
+    gathered_.clear();
     for (const auto& w : workers_) {
       auto out = ctx.outputs.find(w);
       if (out == ctx.outputs.end()) continue;

@@ -6,6 +6,7 @@
 // the wall force; the contact stress's line integrals become sources at the
 // Gauss points of each branch vector, carrying w_q f (x) l.
 #include "cosim/coupler/mapping/cg_fields.hpp"
+#include "cosim/coupler/mapping/gauss_legendre.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -45,28 +46,12 @@ struct Sources {
   }
 };
 
-// Gauss-Legendre rule on [0, 1] by Newton iteration on P_n (Golub-Welsch is
-// overkill for the handful of points a branch vector needs).
+// Gauss-Legendre rule mapped to [0, 1] (the branch parameter).
 void gaussLegendre01(int n, std::vector<double>& nodes, std::vector<double>& weights) {
-  nodes.assign(static_cast<std::size_t>(n), 0.0);
-  weights.assign(static_cast<std::size_t>(n), 0.0);
-  for (int i = 0; i < n; ++i) {
-    double x = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
-    double dp = 1.0;
-    for (int it = 0; it < 100; ++it) {
-      double p0 = 1.0, p1 = x;  // P_0, P_1; recurrence to P_n
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      dp = n * (x * p1 - p0) / (x * x - 1.0);
-      const double dx = p1 / dp;
-      x -= dx;
-      if (std::fabs(dx) < 1e-15) break;
-    }
-    nodes[static_cast<std::size_t>(i)] = 0.5 * (1.0 - x);
-    weights[static_cast<std::size_t>(i)] = 1.0 / ((1.0 - x * x) * dp * dp);  // 2/((1-x^2)P'^2), halved for [0, 1]
+  gaussLegendre(n, nodes, weights);
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    nodes[i] = 0.5 * (1.0 - nodes[i]);
+    weights[i] *= 0.5;
   }
 }
 

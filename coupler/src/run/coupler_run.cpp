@@ -212,7 +212,7 @@ class CouplerRun final : public ExchangeDriver {
     }
     for (const auto& s : scene_.solvers) {
       latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
-      outputs_[s.name] = outputsOf(latest_.at(s.name));
+      keepViews(s.name);
     }
     exchange_ = completed_ = point.exchange;
     time_ = point.time;
@@ -332,7 +332,7 @@ class CouplerRun final : public ExchangeDriver {
       auto done = replies[i].message.envelope().getBody().getSetupDone();
       critical[name] = done.getCriticalDt();
       latest_.insert_or_assign(name, std::move(replies[i].message));
-      outputs_[name] = outputsOf(latest_.at(name));
+      keepViews(name);
     }
     try {
       scene_.schedule->resolveTimeStep(critical, options_.force);
@@ -366,14 +366,13 @@ class CouplerRun final : public ExchangeDriver {
                                         std::to_string(e.getValue()) + " at exchange " + std::to_string(exchange_) +
                                         " (t = " + std::to_string(time_) + " s): the run is unstable");
     latest_.insert_or_assign(name, std::move(reply.message));
-    outputs_[name] = outputsOf(latest_.at(name));
+    keepViews(name);
   }
 
   void runCouplings(const std::set<std::string>& advanced) {
     ScopedTimer t(report_.mappingS);
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
-    const SolverEnergies energies = latestEnergies();
-    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, recordsThisExchange() ? &*series_ : nullptr, &energies,
+    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, recordsThisExchange() ? &*series_ : nullptr, &energies_,
                         advanced};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
   }
@@ -393,8 +392,8 @@ class CouplerRun final : public ExchangeDriver {
     if (!row) return;
     series_->append("time", time_);
     series_->append("exchange", static_cast<double>(exchange_));
-    for (const auto& [name, msg] : latest_) {
-      for (auto e : energiesOf(msg)) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
+    for (const auto& [name, energies] : energies_) {
+      for (auto e : energies) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
       series_->append(name + "/compute_s", timings_[name].computeS);
       series_->append(name + "/communication_s", timings_[name].communicationS);
     }
@@ -406,15 +405,14 @@ class CouplerRun final : public ExchangeDriver {
     }
   }
 
-  SolverEnergies latestEnergies() const {
-    SolverEnergies energies;
-    for (const auto& [name, msg] : latest_) energies.emplace(name, energiesOf(msg));
-    return energies;
+  /// The outputs and energies of a solver's latest reply, as views into latest_.
+  void keepViews(const std::string& name) {
+    outputs_[name] = outputsOf(latest_.at(name));
+    energies_.insert_or_assign(name, energiesOf(latest_.at(name)));
   }
 
   void observe(bool row) {
-    const SolverEnergies energies = latestEnergies();
-    scene_.reference->observe(Observation{exchange_, time_, outputs_, energies, row ? &*series_ : nullptr});
+    scene_.reference->observe(Observation{exchange_, time_, outputs_, energies_, row ? &*series_ : nullptr});
   }
 
   void finish(const std::string& status, const std::string& message, int code) {
@@ -441,8 +439,8 @@ class CouplerRun final : public ExchangeDriver {
     }
     for (const auto& name : faulty_) processes_.kill(name);  // dead or hung: no grace
     processes_.terminateAll(1.0, 2.0);
-    for (const auto& [name, msg] : latest_) {
-      for (auto e : energiesOf(msg)) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
+    for (const auto& [name, energies] : energies_) {
+      for (auto e : energies) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
     }
     if (scene_.reference && completed_ > 0) {
       try {
@@ -482,7 +480,8 @@ class CouplerRun final : public ExchangeDriver {
   CheckpointStore checkpoints_;
   std::optional<CheckpointStore::Point> resumeFrom_;
   std::map<std::string, wire::InMessage> latest_;
-  std::map<std::string, proto::CouplingData::Reader> outputs_;
+  std::map<std::string, proto::CouplingData::Reader> outputs_;  // views into latest_ (keepViews)
+  SolverEnergies energies_;                                      // views into latest_ (keepViews)
   std::map<std::string, InputAssembler> inputs_;
   std::map<std::string, PeerTiming> timings_;
   std::uint64_t exchange_ = 0;   // the exchange in progress (or last done)

@@ -65,10 +65,7 @@ class Lockstep final : public Schedule {
 
   std::uint64_t exchanges() const override {
     if (fixedExchanges_) return static_cast<std::uint64_t>(*fixedExchanges_);
-    const double perExchange = dt_ * stepsPerExchange_;
-    if (!(perExchange > 0.0) || !endTime_) return 0;
-    // The last exchange may overshoot end_time by less than one exchange interval.
-    return static_cast<std::uint64_t>(std::ceil(*endTime_ / perExchange - 1e-9));
+    return endTime_ ? intervalsUntil(*endTime_, dt_ * stepsPerExchange_) : 0;
   }
 
   double endTime() const override { return static_cast<double>(exchanges()) * dt_ * stepsPerExchange_; }

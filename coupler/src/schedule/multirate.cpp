@@ -124,8 +124,7 @@ class Multirate final : public Schedule {
   double coarseDt() const { return dt_ * ratio_; }
   std::uint64_t coarseSteps() const {
     if (fixedSteps_) return static_cast<std::uint64_t>(*fixedSteps_);
-    if (!(coarseDt() > 0.0) || !endTime_) return 0;
-    return static_cast<std::uint64_t>(std::ceil(*endTime_ / coarseDt() - 1e-9));
+    return endTime_ ? intervalsUntil(*endTime_, coarseDt()) : 0;
   }
 
   bool isFine(const std::string& solver) const { return std::find(fine_.begin(), fine_.end(), solver) != fine_.end(); }

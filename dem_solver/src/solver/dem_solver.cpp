@@ -9,6 +9,7 @@
 #include "cosim/dem/measure/measures.hpp"
 #include "cosim/util/weight_profile.hpp"
 #include "cosim/wire/arrays.hpp"
+#include "cosim/wire/coupling_forces.hpp"
 
 namespace cosim::dem {
 namespace {
@@ -111,24 +112,8 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
   // The coupler restages its inputs every exchange: forces not sent again
   // stop acting, and several entries (couplings, zones) add up.
   for (auto& e : p.fExt) e = {};
-  for (auto f : inputs.getForces()) {
-    if (f.getTarget() != proto::CouplingForces::Target::PARTICLES) continue;
-    const auto ids = wire::view(f.getIds());
-    const auto values = wire::view(f.getForces());
-    if (values.size() != 3 * ids.size())
-      throw SolverError(Code::BAD_INPUT, "forces for zone '" + std::string(f.getZone().cStr()) + "': " +
-                                             std::to_string(values.size()) + " values for " +
-                                             std::to_string(ids.size()) + " ids");
-    for (std::size_t k = 0; k < ids.size(); ++k) {
-      if (ids[k] >= p.size())
-        throw SolverError(Code::BAD_INPUT, "forces: particle id " + std::to_string(ids[k]) + " does not exist");
-      const Vec3 fk{values[3 * k], values[3 * k + 1], values[3 * k + 2]};
-      if (!std::isfinite(fk.x) || !std::isfinite(fk.y) || !std::isfinite(fk.z))
-        throw SolverError(Code::BAD_INPUT, "forces for zone '" + std::string(f.getZone().cStr()) +
-                                               "': non-finite force on particle " + std::to_string(ids[k]));
-      p.fExt[ids[k]] += fk;
-    }
-  }
+  wire::forEachCouplingForce(inputs.getForces(), proto::CouplingForces::Target::PARTICLES, p.size(), "particle",
+                             [&p](std::uint32_t id, const double* f) { p.fExt[id] += Vec3{f[0], f[1], f[2]}; });
   // Driven particles: kinematics from outside.
   for (auto s : inputs.getParticles()) {
     const auto ids = wire::view(s.getIds());
@@ -223,9 +208,6 @@ void DemSolver::applyWeightProfile(proto::CouplingData::Reader inputs) {
 
 void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData::Builder outputs) {
   if (!ready_) throw SolverError(Code::UNEXPECTED, "advance before setup");
-  if (request.steps == 0) throw SolverError(Code::BAD_INPUT, "advance: steps must be at least 1");
-  if (!(request.dt > 0.0) || !std::isfinite(request.dt))
-    throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + num(request.dt));
   if (cells_) {
     cells_->answer(request.inputs, outputs);
     cells_->time += request.dt * request.steps;

@@ -15,6 +15,7 @@
 #include "cosim/fem/solver/scene_params.hpp"
 #include "cosim/fem/solver/snapshot_writer.hpp"
 #include "cosim/wire/arrays.hpp"
+#include "cosim/wire/coupling_forces.hpp"
 
 namespace cosim::fem {
 
@@ -404,26 +405,10 @@ void FemSolver::readPeriodic(ParamMap& p) {
 void FemSolver::applyCouplingForces(proto::CouplingData::Reader inputs) {
   auto& f = model_->couplingForce();
   std::fill(f.begin(), f.end(), 0.0);
-  for (auto forces : inputs.getForces()) {
-    if (forces.getTarget() != proto::CouplingForces::Target::NODES) continue;
-    const auto ids = wire::view(forces.getIds());
-    const auto values = wire::view(forces.getForces());
-    if (values.size() != 3 * ids.size())
-      throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) + "': " +
-                                             std::to_string(values.size()) + " values for " +
-                                             std::to_string(ids.size()) + " nodes");
-    for (std::size_t k = 0; k < ids.size(); ++k) {
-      if (ids[k] >= model_->numNodes())
-        throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) +
-                                               "': node " + std::to_string(ids[k]) + " does not exist");
-      for (std::size_t d = 0; d < 3; ++d) {
-        if (!std::isfinite(values[3 * k + d]))
-          throw SolverError(Code::BAD_INPUT, "coupling forces '" + std::string(forces.getZone().cStr()) +
-                                                 "': non-finite force on node " + std::to_string(ids[k]));
-        f[3 * ids[k] + d] += values[3 * k + d];
-      }
-    }
-  }
+  wire::forEachCouplingForce(inputs.getForces(), proto::CouplingForces::Target::NODES, model_->numNodes(), "node",
+                             [&f](std::uint32_t id, const double* force) {
+                               for (std::size_t d = 0; d < 3; ++d) f[3 * id + d] += force[d];
+                             });
 }
 
 void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const {
@@ -442,9 +427,6 @@ void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const 
 
 void FemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData::Builder outputs) {
   if (!model_) throw SolverError(Code::UNEXPECTED, "advance before setup");
-  if (request.steps == 0) throw SolverError(Code::BAD_INPUT, "advance: steps must be at least 1");
-  if (!(request.dt > 0.0) || !std::isfinite(request.dt))
-    throw SolverError(Code::BAD_INPUT, "advance: dt must be positive, got " + std::to_string(request.dt));
   const double crit = criticalDt();
   if (crit > 0.0 && request.dt > crit && !force_)
     throw SolverError(Code::BAD_INPUT, "advance: dt = " + std::to_string(request.dt) +

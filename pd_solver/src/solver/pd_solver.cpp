@@ -138,9 +138,6 @@ void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::ve
 
 void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::CouplingData::Builder outputs) {
   requireSetup("advance");
-  if (req.steps == 0) throw SolverError(Error::Code::BAD_INPUT, "advance: steps must be at least 1");
-  if (!(req.dt > 0.0) || !std::isfinite(req.dt))
-    throw SolverError(Error::Code::BAD_INPUT, "advance: dt must be positive, got " + std::to_string(req.dt));
   const double crit = system_.criticalTimeStep();
   if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
     throw SolverError(Error::Code::BAD_INPUT, "advance: dt = " + std::to_string(req.dt) +

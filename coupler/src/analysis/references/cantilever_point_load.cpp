@@ -50,7 +50,7 @@ class CantileverPointLoad final : public Reference {
   }
 
   void observe(const Observation& o) override {
-    const auto states = zoneStates(o);
+    const auto states = zoneStates(o, dem_, zone_);
     const auto x = wire::view(states.getPositions());
     if (o.exchange == 0 || x0_.empty()) start(states, o);
     const double energy = totalEnergy(o);
@@ -60,10 +60,11 @@ class CantileverPointLoad final : public Reference {
                                " J at t = " + std::to_string(o.time) + " s, more than " + std::to_string(maxGrowth_) +
                                " times its initial " + std::to_string(initialEnergy_) +
                                " J (analysis.max_energy_growth); the CG width or the schedule is outside the stable range");
+    const auto zRef = referenceZ(x);
     if (o.series) {
       o.series->append("analysis/total_energy", energy);
       o.series->append("analysis/positions", x);
-      o.series->append("analysis/reference_z", referenceZ(x));
+      o.series->append("analysis/reference_z", zRef);
     }
     if (coupled_ && !allOnBeam(x)) {
       coupled_ = false;
@@ -71,7 +72,7 @@ class CantileverPointLoad final : public Reference {
     }
     if (allLeft(x)) finished_ = true;
     if (!coupled_ || o.exchange == 0) return;
-    const double err = error(x);
+    const double err = error(x, zRef);
     if (o.series) o.series->append("analysis/trajectory_error", err);
     errorIntegral_ += 0.5 * (err + lastError_) * (o.time - lastTime_);
     lastError_ = err;
@@ -95,15 +96,6 @@ class CantileverPointLoad final : public Reference {
   }
 
  private:
-  proto::ParticleStates::Reader zoneStates(const Observation& o) const {
-    auto out = o.outputs.find(dem_);
-    if (out != o.outputs.end())
-      for (auto s : out->second.getParticles())
-        if (s.getZone() == zone_) return s;
-    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
-                             "' (add params.zones: [{name: " + zone_ + "}] to it)");
-  }
-
   void start(proto::ParticleStates::Reader states, const Observation& o) {
     const auto x = wire::view(states.getPositions());
     x0_.assign(x.begin(), x.end());
@@ -126,8 +118,7 @@ class CantileverPointLoad final : public Reference {
     return zRef_;
   }
 
-  double error(std::span<const double> x) {
-    const auto zRef = referenceZ(x);
+  double error(std::span<const double> x, std::span<const double> zRef) const {
     double sum = 0.0;
     for (std::size_t p = 0; p < zRef.size(); ++p) {
       const double dx = x[3 * p] - x0_[3 * p], dz = x[3 * p + 2] - zRef[p];

@@ -63,7 +63,7 @@ class HertzIndentation final : public Reference {
   }
 
   void observe(const Observation& o) override {
-    const auto sphere = indenter(o);
+    const auto sphere = zoneStates(o, dem_, zone_);
     const auto x = wire::view(sphere.getPositions());
     const auto f = wire::view(sphere.getForces());
     if (x.size() != 3 || f.size() != 3)
@@ -119,15 +119,6 @@ class HertzIndentation final : public Reference {
     double depth, force, hertz;
   };
 
-  proto::ParticleStates::Reader indenter(const Observation& o) const {
-    auto out = o.outputs.find(dem_);
-    if (out != o.outputs.end())
-      for (auto s : out->second.getParticles())
-        if (s.getZone() == zone_) return s;
-    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
-                             "' (add params.zones: [{name: " + zone_ + ", box: ...}] around the sphere)");
-  }
-
   /// Highest top z + R_h of PD's hybrid particles: where the sphere first touches.
   void findSurface(const Observation& o, double radius) {
     auto out = o.outputs.find(pd_);
@@ -140,7 +131,7 @@ class HertzIndentation final : public Reference {
     for (std::size_t k = 0; k < r.size(); ++k) surface_ = std::max(surface_, x[3 * k + 2] + r[k]);
     radius_ = radius;
     haveSurface_ = true;
-    lastBottom_ = wire::view(indenter(o).getPositions())[2] - radius;
+    lastBottom_ = wire::view(zoneStates(o, dem_, zone_).getPositions())[2] - radius;
   }
 
   /// z of the summed hybrid forces DEM returned (force on PD's surface).

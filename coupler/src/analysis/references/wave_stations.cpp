@@ -47,7 +47,7 @@ class WaveStations final : public Reference {
   }
 
   void observe(const Observation& o) override {
-    const auto states = zoneStates(o);
+    const auto states = zoneStates(o, dem_, zone_);
     if (members_.empty()) pickStations(states);
     const auto v = wire::view(states.getVelocities());
     for (std::size_t s = 0; s < members_.size(); ++s) sample_[s] = v[3 * members_[s] + component_];
@@ -88,15 +88,6 @@ class WaveStations final : public Reference {
     }
   }
 
-  proto::ParticleStates::Reader zoneStates(const Observation& o) const {
-    auto out = o.outputs.find(dem_);
-    if (out != o.outputs.end())
-      for (auto s : out->second.getParticles())
-        if (s.getZone() == zone_) return s;
-    throw std::runtime_error("analysis: solver '" + dem_ + "' sent no particle states for zone '" + zone_ +
-                             "' (add params.zones: [{name: " + zone_ + "}] to it)");
-  }
-
   void pickStations(proto::ParticleStates::Reader states) {
     const auto x = wire::view(states.getPositions());
     if (x.empty()) throw std::runtime_error("analysis: zone '" + zone_ + "' of '" + dem_ + "' holds no particle");
@@ -121,13 +112,14 @@ class WaveStations final : public Reference {
 
   /// This run's record of station s at time t (linear between exchanges).
   double sampleAt(std::size_t s, double t) const {
+    const std::size_t n = members_.size();
+    if (times_.size() < 2) return record_[s];
     const auto it = std::lower_bound(times_.begin(), times_.end(), t);
-    const auto k = static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(it - times_.begin(), 1,
-                                                                        static_cast<std::ptrdiff_t>(times_.size()) - 1));
-    const double t0 = times_[k - 1], t1 = times_[k], n = static_cast<double>(members_.size());
+    const auto k = static_cast<std::size_t>(
+        std::clamp<std::ptrdiff_t>(it - times_.begin(), 1, static_cast<std::ptrdiff_t>(times_.size()) - 1));
+    const double t0 = times_[k - 1], t1 = times_[k];
     const double a = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
-    const double v0 = record_[(k - 1) * static_cast<std::size_t>(n) + s], v1 = record_[k * static_cast<std::size_t>(n) + s];
-    return (1.0 - a) * v0 + a * v1;
+    return (1.0 - a) * record_[(k - 1) * n + s] + a * record_[k * n + s];
   }
 
   double errorAgainstReference() const {

@@ -43,6 +43,8 @@ struct SetupContext {
   proto::CouplingData::Reader inputs;
 };
 
+/// The SolverHost refuses an advance with steps = 0 or a dt that is not
+/// finite and positive before it reaches a solver.
 struct AdvanceRequest {
   std::uint32_t steps = 0;
   double dt = 0.0;

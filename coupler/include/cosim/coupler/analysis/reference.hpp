@@ -47,6 +47,10 @@ class Reference {
   virtual void conclude(RunReport& report) const = 0;
 };
 
+/// The particle states a DEM solver sent for one of its zones (params.zones);
+/// throws naming the solver and zone when it sent none.
+proto::ParticleStates::Reader zoneStates(const Observation& o, const std::string& solver, const std::string& zone);
+
 using ReferenceRegistry = Registry<Reference, config::MapReader&, const std::vector<SolverSpec>&>;
 
 }  // namespace cosim::coupler

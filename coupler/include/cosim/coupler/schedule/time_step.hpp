@@ -1,6 +1,8 @@
 #pragma once
 // What the schedules share about time steps: the tightest critical step among
 // some solvers, and readable numbers for the messages that refuse a step.
+#include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -21,6 +23,13 @@ CriticalStep tightestStep(const std::map<std::string, double>& criticalDt, Inclu
   for (const auto& [solver, dt] : criticalDt)
     if (include(solver) && dt > 0.0 && dt < limit.dt) limit = {dt, solver};
   return limit;
+}
+
+/// Intervals of length `interval` until `endTime`; the last may overshoot it
+/// by less than one interval (0 when the interval is not yet known).
+inline std::uint64_t intervalsUntil(double endTime, double interval) {
+  if (!(interval > 0.0)) return 0;
+  return static_cast<std::uint64_t>(std::ceil(endTime / interval - 1e-9));
 }
 
 inline std::string formatNumber(double v) {
