@@ -19,14 +19,13 @@ constexpr std::size_t kHeaderBytes = 8;
 constexpr std::uint64_t kTraversalFactor = 64;
 
 void releaseBuilder(void* /*data*/, void* hint) {
-  delete static_cast<std::shared_ptr<capnp::MallocMessageBuilder>*>(hint);
+  delete static_cast<std::shared_ptr<PooledMessageBuilder>*>(hint);
 }
 
 }  // namespace
 
 OutMessage::OutMessage(std::size_t firstSegmentWords)
-    : builder_(std::make_shared<capnp::MallocMessageBuilder>(
-          static_cast<unsigned>(std::max<std::size_t>(firstSegmentWords, 64)))) {}
+    : builder_(std::make_shared<PooledMessageBuilder>(firstSegmentWords)) {}
 
 proto::Envelope::Builder OutMessage::envelope() {
   return builder_->getRoot<proto::Envelope>();
@@ -45,7 +44,7 @@ std::vector<zmq::message_t> OutMessage::frames() const {
     auto bytes = segment.asBytes();
     // Zero-copy: ZeroMQ keeps the builder alive until it has sent this frame.
     out.emplace_back(const_cast<kj::byte*>(bytes.begin()), bytes.size(), &releaseBuilder,
-                     new std::shared_ptr<capnp::MallocMessageBuilder>(builder_));
+                     new std::shared_ptr<PooledMessageBuilder>(builder_));
   }
   return out;
 }

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/wire/segment_pool.hpp"
 #include "session.capnp.h"
 
 namespace cosim::wire {
@@ -34,7 +35,7 @@ class OutMessage {
   std::size_t sizeInBytes() const;
 
  private:
-  std::shared_ptr<capnp::MallocMessageBuilder> builder_;
+  std::shared_ptr<PooledMessageBuilder> builder_;
 };
 
 /// A received Envelope; keeps the frames it points into alive.

@@ -1,0 +1,77 @@
+#pragma once
+// Buffer reuse for outgoing messages.
+//
+// Cap'n Proto builds into zeroed segments. A fresh 16 MiB segment costs a
+// memset (calloc on reused heap memory) or 4096 page faults (fresh mmap pages)
+// before a single payload byte is copied in, on the critical path of every
+// exchange. The pool keeps the segments of sent messages and zeroes their used
+// part when they come back. They come back when ZeroMQ has sent the last frame,
+// i.e. on ZeroMQ's I/O thread while the sender waits for the peer's reply, so
+// the next message of the same size starts from a zeroed, already mapped buffer.
+//
+// Only large segments are pooled: small ones are cheap to calloc and would
+// otherwise pin big buffers. The pool is bounded in bytes; what does not fit is
+// freed. It is thread-safe (release runs on the I/O thread) and never
+// destroyed, so a frame freed during static destruction still has a pool.
+
+#include <capnp/message.h>
+
+#include <cstddef>
+#include <mutex>
+#include <vector>
+
+namespace cosim::wire {
+
+class SegmentPool {
+ public:
+  /// Segments below this many words are not pooled (64 KiB).
+  static constexpr std::size_t kMinPooledWords = std::size_t{1} << 13;
+
+  struct Segment {
+    capnp::word* words = nullptr;
+    std::size_t capacity = 0;  // in words
+  };
+  struct Stats {
+    std::size_t reused = 0, allocated = 0, freeBytes = 0, freeSegments = 0;
+  };
+
+  /// The process's pool.
+  static SegmentPool& instance();
+
+  explicit SegmentPool(std::size_t maxFreeBytes);
+  SegmentPool(const SegmentPool&) = delete;
+  SegmentPool& operator=(const SegmentPool&) = delete;
+  ~SegmentPool();
+
+  /// A zeroed segment of at least `words` words (at most twice that when reused).
+  Segment acquire(std::size_t words);
+  /// Takes a segment back; only its first `usedWords` words may be non-zero.
+  void release(Segment segment, std::size_t usedWords);
+  Stats stats() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<Segment> free_;
+  std::size_t maxFreeBytes_;
+  std::size_t freeBytes_ = 0;
+  std::size_t reused_ = 0, allocated_ = 0;
+};
+
+/// A MessageBuilder whose segments come from a SegmentPool and go back to it
+/// when the builder is destroyed.
+class PooledMessageBuilder final : public capnp::MessageBuilder {
+ public:
+  PooledMessageBuilder(std::size_t firstSegmentWords, SegmentPool& pool = SegmentPool::instance());
+  PooledMessageBuilder(const PooledMessageBuilder&) = delete;
+  PooledMessageBuilder& operator=(const PooledMessageBuilder&) = delete;
+  ~PooledMessageBuilder() override;
+
+  kj::ArrayPtr<capnp::word> allocateSegment(unsigned minimumSize) override;
+
+ private:
+  SegmentPool& pool_;
+  std::size_t nextWords_;
+  std::vector<SegmentPool::Segment> segments_;
+};
+
+}  // namespace cosim::wire
