@@ -1,12 +1,15 @@
 // The contact-force maps of the surface coupling (Cheng 2022 Eqs. 14-16):
 // total force conserved by both forms, total moment by the point form, and
-// inconsistent input refused with a message.
+// inconsistent input refused with a message. The smoothed (energy-consistent)
+// wall: its force map and its kinematics are transposes, so a contact does the
+// same work on the wall DEM feels and on the nodes.
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
 #include <random>
 
+#include "cosim/coupler/mapping/smoothed_surface.hpp"
 #include "cosim/coupler/mapping/surface_force_map.hpp"
 
 namespace cosim::coupler {
@@ -189,6 +192,110 @@ TEST(SurfaceForceMap, RefusesInconsistentInput) {
   SurfaceForceMap tiny(*lucy, 1e-3);
   const auto q = s.quadrature();
   EXPECT_THROW(tiny.map({ok, bary, point, force}, s.mesh(), &q, out), std::invalid_argument);
+}
+
+// A smooth nodal field (displacement or velocity) on the flat surface's nodes,
+// and the vertex values the surface export would carry for it.
+std::vector<double> nodalField(const FlatSurface& s, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<double> field;
+  for (std::size_t n = 0; n < s.nodes.size(); ++n)
+    for (int d = 0; d < 3; ++d) field.push_back(u(rng));
+  return field;
+}
+
+std::vector<double> vertexValues(const FlatSurface& s, const std::vector<double>& nodal) {
+  std::vector<double> out(s.positions.size(), 0.0);
+  for (std::size_t v = 0; v + 1 < s.rowStart.size(); ++v)
+    for (std::uint32_t e = s.rowStart[v]; e < s.rowStart[v + 1]; ++e)
+      for (std::size_t d = 0; d < 3; ++d) out[3 * v + d] += s.nodeWeights[e] * nodal[3 * s.nodeIds[e] + d];
+  return out;
+}
+
+TEST(SmoothedSurface, ContactDoesEqualWorkOnTheWallAndOnTheNodes) {
+  const FlatSurface s(4, 6, 0.4);
+  const Contacts c(s, 30, 5);
+  const auto lucy = kernel("lucy");
+  for (double width : {0.3, 0.8, 2.0}) {
+    SurfaceForceMap cg(*lucy, width);
+    const auto q = s.quadrature();
+    const SmoothedSurface smoothed(cg, s.mesh(), q);
+    // Deform the surface, give its nodes velocities, and let DEM's contacts act on it.
+    const auto u = nodalField(s, 11), vNodes = nodalField(s, 12);
+    std::vector<double> x = vertexValues(s, u);
+    for (std::size_t k = 0; k < x.size(); ++k) x[k] += s.positions[k];
+    SurfaceMeshView now = s.mesh();
+    now.positions = x;
+    std::vector<double> wallX, wallV;
+    smoothed.kinematics(now, vertexValues(s, vNodes), wallX, wallV);
+    const auto dirac = kernel("dirac");
+    SurfaceForceMap point(*dirac, 0.0);
+    NodalForces out;
+    point.map(c.view(), smoothed.withSmoothedWeights(now), nullptr, out);
+    double wallPower = 0.0, nodalPower = 0.0, scale = 0.0;
+    for (std::size_t k = 0; k < c.triangles.size(); ++k)
+      for (std::size_t v = 0; v < 3; ++v) {
+        const std::size_t vertex = s.triangles[3 * c.triangles[k] + v];
+        for (std::size_t d = 0; d < 3; ++d) {
+          wallPower += c.bary[3 * k + v] * wallV[3 * vertex + d] * c.forces[3 * k + d];
+          scale += std::abs(c.bary[3 * k + v] * wallV[3 * vertex + d] * c.forces[3 * k + d]);
+        }
+      }
+    for (std::size_t k = 0; k < out.ids.size(); ++k)
+      for (std::size_t d = 0; d < 3; ++d) nodalPower += out.forces[3 * k + d] * vNodes[3 * out.ids[k] + d];
+    EXPECT_NEAR(nodalPower, wallPower, 1e-12 * scale) << "c = " << width;
+    // The total force still arrives whole.
+    const auto got = nodalForceAndMoment(s, out), expected = forceAndMoment(c.points, c.forces);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(got[static_cast<std::size_t>(i)], expected[static_cast<std::size_t>(i)], 1e-10);
+  }
+}
+
+TEST(SmoothedSurface, ReproducesRestAndRigidTranslationAndSmoothsTheRest) {
+  const FlatSurface s(4, 6, 0.4);
+  const auto lucy = kernel("lucy");
+  SurfaceForceMap cg(*lucy, 1.0);
+  const auto q = s.quadrature();
+  const SmoothedSurface smoothed(cg, s.mesh(), q);
+  for (std::size_t v = 0; v + 1 < smoothed.weights().rowStart.size(); ++v) {
+    double sum = 0.0;
+    for (auto e = smoothed.weights().rowStart[v]; e < smoothed.weights().rowStart[v + 1]; ++e) sum += smoothed.weights().weights[e];
+    EXPECT_NEAR(sum, 1.0, 1e-13) << "row " << v;
+  }
+  std::vector<double> x, v;
+  const std::vector<double> still(s.positions.size(), 0.0);
+  smoothed.kinematics(s.mesh(), still, x, v);
+  for (std::size_t k = 0; k < x.size(); ++k) EXPECT_EQ(x[k], s.positions[k]);
+  // A rigid translation moves every vertex by exactly that much, edges included.
+  std::vector<double> moved(s.positions);
+  for (std::size_t k = 0; k < moved.size(); ++k) moved[k] += (k % 3 == 2) ? 0.25 : -0.5;
+  SurfaceMeshView now = s.mesh();
+  now.positions = moved;
+  smoothed.kinematics(now, still, x, v);
+  for (std::size_t k = 0; k < x.size(); ++k) EXPECT_NEAR(x[k], moved[k], 1e-14);
+  // A single raised node is spread over its neighbours: less under it, some beside it.
+  moved = s.positions;
+  const std::size_t centreNode = 3 * 5 + 2;  // node (2, 3), its vertex has the same index
+  moved[3 * centreNode + 2] = 1.0;
+  now.positions = moved;
+  smoothed.kinematics(now, still, x, v);
+  EXPECT_LT(x[3 * centreNode + 2], 1.0);
+  EXPECT_GT(x[3 * centreNode + 2], 0.0);
+  EXPECT_GT(x[3 * (centreNode + 1) + 2], 0.0);
+}
+
+TEST(SmoothedSurface, RefusesASurfaceWithoutAVertexOnEveryNode) {
+  FlatSurface s(2, 2, 0.5);
+  s.nodeWeights[0] = 0.5;  // node 0's own vertex no longer sits on it
+  const auto lucy = kernel("lucy");
+  SurfaceForceMap cg(*lucy, 1.0);
+  const auto q = s.quadrature();
+  try {
+    const SmoothedSurface smoothed(cg, s.mesh(), q);
+    FAIL() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("node 0"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

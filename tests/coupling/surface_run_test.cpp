@@ -62,6 +62,24 @@ TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {
   EXPECT_LT(c1.report()["errors"][0]["value"].get<double>(), 1e-4);
 }
 
+TEST(SurfaceCouplingRun, SmoothedWallRunsTheScenesScheduleAndBalancesTheForces) {
+  // The energy-consistent wall (SmoothedSurface) on C1's own schedule, 0.04 s.
+  C1Run c1;
+  const auto done = c1.run({"--set", "couplings.top.wall_kinematics=smoothed", "--set", "schedule.order=fine-first",
+                            "--set", "schedule.ratio=1", "--set", "schedule.coarse_steps=600"});
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  const auto report = c1.report();
+  EXPECT_LT(report["errors"][0]["value"].get<double>(), 1e-4);
+  EXPECT_GT(report["figures"]["max_total_energy_J"].get<double>(), 0.8);
+  EXPECT_LT(report["figures"]["max_total_energy_J"].get<double>(), 0.9);
+  auto h5 = io::H5File::openReadOnly(c1.dir / "run" / "coupler.h5");
+  const auto contact = h5.readArray("/series/top/contact_force");
+  const auto nodal = h5.readArray("/series/top/nodal_force");
+  ASSERT_EQ(contact.size(), nodal.size());
+  for (std::size_t k = 0; k < contact.size(); ++k)
+    EXPECT_NEAR(nodal[k], contact[k], 1e-9 * (1.0 + std::abs(contact[k]))) << "row " << k / 3;
+}
+
 TEST(SurfaceCouplingRun, EnergyGrowthBeyondTheLimitStopsTheRunAsUnstable) {
   C1Run c1;
   // The coupled energy drifts by a few per mille over these 30 steps: a limit of

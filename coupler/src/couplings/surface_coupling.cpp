@@ -11,7 +11,11 @@
 //                 the exported velocities (both solvers may advance at once);
 //   interpolated: DEM gets the surface at the previous FEM state and the secant
 //                 velocity to the new one, so it sweeps exactly from one FEM
-//                 state to the next; needs a schedule that advances FEM first.
+//                 state to the next; needs a schedule that advances FEM first;
+//   smoothed:     as extrapolated, but DEM feels the CG-smoothed surface and the
+//                 forces return through the same weights, so the contact does
+//                 equal work on both sides (SmoothedSurface; c > 0 only, the
+//                 point form at c = 0).
 #include <cmath>
 #include <ostream>
 #include <sstream>
@@ -19,6 +23,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/mapping/smoothed_surface.hpp"
 #include "cosim/coupler/mapping/surface_force_map.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/wire/arrays.hpp"
@@ -65,10 +70,16 @@ class SurfaceCoupling final : public Coupling {
     if (kernel_ && kernel_->isDirac() && width_ > 0.0)
       m.error("width", "the dirac kernel has no width (c = 0); use kernel: lucy or gaussian for c > 0");
     const std::string kinematics = m.string("wall_kinematics", "extrapolated");
-    if (kinematics != "extrapolated" && kinematics != "interpolated")
-      m.error("wall_kinematics", "must be extrapolated or interpolated, got '" + kinematics + "'");
+    if (kinematics != "extrapolated" && kinematics != "interpolated" && kinematics != "smoothed")
+      m.error("wall_kinematics", "must be extrapolated, interpolated or smoothed, got '" + kinematics + "'");
     interpolated_ = kinematics == "interpolated";
+    // At c = 0 the smoothed wall is the unsmoothed one (G_i -> psi_i).
+    smoothed_ = kinematics == "smoothed" && width_ > 0.0;
     if (kernel_) map_.emplace(*kernel_, width_);
+    if (smoothed_) {
+      dirac_ = CgKernelRegistry::make("dirac");
+      pointMap_.emplace(*dirac_, 0.0);
+    }
   }
 
   std::string kind() const override { return "surface"; }
@@ -83,30 +94,68 @@ class SurfaceCoupling final : public Coupling {
     out << fem_ << " surface '" << surface_ << "' <-> " << dem_ << " triangle wall; forces by "
         << (kernel_ && !kernel_->isDirac() ? kernel_->name() + " kernel, c = " + std::to_string(width_) + " m (Eqs. 14-15)"
                                            : std::string("point form (Eq. 16)"))
-        << ", wall kinematics " << (interpolated_ ? "interpolated" : "extrapolated");
+        << ", wall kinematics " << (interpolated_ ? "interpolated" : smoothed_ ? "smoothed (energy-consistent)" : "extrapolated");
   }
 
   void exchange(ExchangeContext& ctx) override {
     auto fem = ctx.outputs.find(fem_);
     auto dem = ctx.outputs.find(dem_);
     if (fem == ctx.outputs.end() || dem == ctx.outputs.end()) return;
-    const auto mesh = findMesh(fem->second, ctx);
-    stageWall(mesh, ctx);
-    mapForces(dem->second, mesh, fem->second, ctx);
+    const auto mesh = findMesh(fem->second, ctx.exchange);
+    const SurfaceMeshView mv = meshView(mesh);
+    const auto qv = findQuadrature(fem->second);
+    stageWall(mesh, mv, ctx);
+    mapForces(dem->second, mv, qv, ctx);
   }
 
  private:
-  proto::TriangleMeshKinematics::Reader findMesh(proto::CouplingData::Reader fem, const ExchangeContext& ctx) const {
+  static SurfaceMeshView meshView(proto::TriangleMeshKinematics::Reader mesh) {
+    return {wire::view(mesh.getPositions()), wire::view(mesh.getTriangles()), wire::view(mesh.getRowStart()),
+            wire::view(mesh.getNodeIds()), wire::view(mesh.getNodeWeights())};
+  }
+
+  proto::TriangleMeshKinematics::Reader findMesh(proto::CouplingData::Reader fem, std::uint64_t exchange) const {
     for (auto m : fem.getMeshes())
       if (m.getSurface() == surface_) return m;
     throw std::runtime_error("coupling '" + name() + "': solver '" + fem_ + "' exported no surface '" + surface_ +
-                             "' at exchange " + std::to_string(ctx.exchange) +
+                             "' at exchange " + std::to_string(exchange) +
                              " (list it under its params coupling.surfaces)");
   }
 
-  void stageWall(proto::TriangleMeshKinematics::Reader mesh, ExchangeContext& ctx) {
+  std::optional<SurfaceQuadratureView> findQuadrature(proto::CouplingData::Reader fem) const {
+    for (auto q : fem.getQuadratures())
+      if (q.getSurface() == surface_)
+        return SurfaceQuadratureView{wire::view(q.getPositions()), wire::view(q.getWeights()), q.getNodesPerPoint(),
+                                     wire::view(q.getNodeIds()), wire::view(q.getShapeValues())};
+    return std::nullopt;
+  }
+
+  /// G_i(X_v) of the smoothed wall, from the undeformed surface.
+  void setupReference(const std::map<std::string, proto::CouplingData::Reader>& outputs) override {
+    if (!smoothed_) return;
+    const auto fem = outputs.find(fem_);
+    if (fem == outputs.end()) return;
+    const auto mesh = findMesh(fem->second, 0);
+    const auto qv = findQuadrature(fem->second);
+    if (!qv)
+      throw std::runtime_error("coupling '" + name() + "': wall_kinematics smoothed needs the surface quadrature of '" +
+                               fem_ + "' (params coupling.quadrature: true)");
+    try {
+      smoothing_.emplace(*map_, meshView(mesh), *qv);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("coupling '" + name() + "' at setup: " + e.what());
+    }
+  }
+
+  void stageWall(proto::TriangleMeshKinematics::Reader mesh, const SurfaceMeshView& mv, ExchangeContext& ctx) {
     const auto x = wire::view(mesh.getPositions());
     InputAssembler::StagedMesh staged{surface_, x, wire::view(mesh.getVelocities()), wire::view(mesh.getTriangles())};
+    if (smoothing_) {
+      // Between two FEM replies the smoothed surface does not change.
+      if (ctx.isNew(fem_) || smoothedX_.empty()) smoothing_->kinematics(mv, staged.velocities, smoothedX_, smoothedV_);
+      staged.positions = smoothedX_;
+      staged.velocities = smoothedV_;
+    }
     if (interpolated_) {
       if (ctx.isNew(fem_) || start_.empty()) advanceSecant(x, ctx.time);
       staged.positions = start_;
@@ -129,8 +178,8 @@ class SurfaceCoupling final : public Coupling {
     lastTime_ = time;
   }
 
-  void mapForces(proto::CouplingData::Reader dem, proto::TriangleMeshKinematics::Reader mesh,
-                 proto::CouplingData::Reader fem, ExchangeContext& ctx) {
+  void mapForces(proto::CouplingData::Reader dem, const SurfaceMeshView& mv,
+                 const std::optional<SurfaceQuadratureView>& qv, ExchangeContext& ctx) {
     proto::ContactList::Reader contacts;
     bool found = false;
     for (auto c : dem.getContacts())
@@ -138,21 +187,21 @@ class SurfaceCoupling final : public Coupling {
     if (!found) return;  // DEM has not seen the wall yet (setup outputs)
     const ContactsView cv{wire::view(contacts.getTriangleIds()), wire::view(contacts.getBarycentric()),
                           wire::view(contacts.getPoints()), wire::view(contacts.getForces())};
-    const SurfaceMeshView mv{wire::view(mesh.getPositions()), wire::view(mesh.getTriangles()),
-                             wire::view(mesh.getRowStart()), wire::view(mesh.getNodeIds()),
-                             wire::view(mesh.getNodeWeights())};
-    std::optional<SurfaceQuadratureView> qv;
-    for (auto q : fem.getQuadratures())
-      if (q.getSurface() == surface_)
-        qv = SurfaceQuadratureView{wire::view(q.getPositions()), wire::view(q.getWeights()), q.getNodesPerPoint(),
-                                   wire::view(q.getNodeIds()), wire::view(q.getShapeValues())};
+    // The smoothed map depends on the contacts only; the others also on where FEM's surface is.
+    if (ctx.isNew(dem_) || (!smoothing_ && ctx.isNew(fem_)) || !mapped_) remap(cv, mv, qv, ctx);
+    ctx.inputs[fem_].stageForces({surface_, proto::CouplingForces::Target::NODES, nodal_.ids, nodal_.forces});
+    record(cv, ctx);
+  }
+
+  void remap(const ContactsView& cv, const SurfaceMeshView& mv, const std::optional<SurfaceQuadratureView>& qv,
+             const ExchangeContext& ctx) {
     try {
-      map_->map(cv, mv, qv ? &*qv : nullptr, nodal_);
+      if (smoothing_) pointMap_->map(cv, smoothing_->withSmoothedWeights(mv), nullptr, nodal_);
+      else map_->map(cv, mv, qv ? &*qv : nullptr, nodal_);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) + ": " + e.what());
     }
-    ctx.inputs[fem_].stageForces({surface_, proto::CouplingForces::Target::NODES, nodal_.ids, nodal_.forces});
-    record(cv, ctx);
+    mapped_ = true;
   }
 
   void record(const ContactsView& c, ExchangeContext& ctx) const {
@@ -168,8 +217,12 @@ class SurfaceCoupling final : public Coupling {
   std::string fem_, dem_, surface_;
   std::unique_ptr<CgKernel> kernel_;
   double width_ = 0.0;
-  bool interpolated_ = false;
+  bool interpolated_ = false, smoothed_ = false, mapped_ = false;
   std::optional<SurfaceForceMap> map_;
+  std::unique_ptr<CgKernel> dirac_;          // smoothed: forces go back by Eq. 16 with G as weights
+  std::optional<SurfaceForceMap> pointMap_;
+  std::optional<SmoothedSurface> smoothing_;
+  std::vector<double> smoothedX_, smoothedV_;
   NodalForces nodal_;
   std::vector<double> last_, start_, secant_;  // FEM surface last exported; where DEM starts; its velocity
   double lastTime_ = 0.0;

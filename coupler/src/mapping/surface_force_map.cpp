@@ -50,7 +50,12 @@ void SurfaceForceMap::addPointForm(std::size_t k, const ContactsView& c, const S
 // the quadrature points themselves (Sec. 5.1.2), so sum_i f_i = sum_c f_c
 // exactly, also where the kernel's support overhangs the surface's edge.
 void SurfaceForceMap::addSmoothedForm(std::size_t k, const ContactsView& c, const SurfaceQuadratureView& q) {
-  const double* x = &c.points[3 * k];
+  const double total = gatherSupport(&c.points[3 * k], q);
+  if (!(total > 0.0)) throw noSupport("contact " + std::to_string(k), &c.points[3 * k]);
+  addSupport(total, q, &c.forces[3 * k]);
+}
+
+double SurfaceForceMap::gatherSupport(const double* x, const SurfaceQuadratureView& q) {
   supportPoints_.clear();
   support_.clear();
   double total = 0.0;
@@ -74,19 +79,42 @@ void SurfaceForceMap::addSmoothedForm(std::size_t k, const ContactsView& c, cons
           total += a;
         }
       }
-  if (!(total > 0.0)) {
-    // No quadrature point within c: the width is below the quadrature spacing.
-    throw std::invalid_argument("contact " + std::to_string(k) + " at (" + std::to_string(x[0]) + ", " +
-                                std::to_string(x[1]) + ", " + std::to_string(x[2]) +
-                                "): no surface quadrature point within the CG width c = " + std::to_string(width_) +
-                                " m; use a larger width or kernel: dirac");
-  }
+  return total;
+}
+
+void SurfaceForceMap::addSupport(double total, const SurfaceQuadratureView& q, const double* force) {
   const std::uint32_t npp = q.nodesPerPoint;
   for (std::size_t s = 0; s < supportPoints_.size(); ++s) {
     const std::size_t p = supportPoints_[s];
     for (std::uint32_t a = 0; a < npp; ++a)
-      add(q.nodeIds[p * npp + a], support_[s] / total * q.shapeValues[p * npp + a], &c.forces[3 * k]);
+      add(q.nodeIds[p * npp + a], support_[s] / total * q.shapeValues[p * npp + a], force);
   }
+}
+
+std::invalid_argument SurfaceForceMap::noSupport(const std::string& what, const double* x) const {
+  // No quadrature point within c: the width is below the quadrature spacing.
+  return std::invalid_argument(what + " at (" + std::to_string(x[0]) + ", " + std::to_string(x[1]) + ", " +
+                               std::to_string(x[2]) + "): no surface quadrature point within the CG width c = " +
+                               std::to_string(width_) + " m; use a larger width or kernel: dirac");
+}
+
+VertexNodeWeights SurfaceForceMap::weightsAt(std::span<const double> points, const SurfaceQuadratureView& q) {
+  if (kernel_.isDirac()) throw std::invalid_argument("CG weights at points need a kernel with a width (c > 0)");
+  binQuadrature(q);
+  VertexNodeWeights rows;
+  rows.rowStart.push_back(0);
+  const double unit[3] = {1.0, 0.0, 0.0};
+  NodalForces row;
+  for (std::size_t v = 0; 3 * v + 2 < points.size(); ++v) {
+    const double total = gatherSupport(&points[3 * v], q);
+    if (!(total > 0.0)) throw noSupport("point " + std::to_string(v), &points[3 * v]);
+    addSupport(total, q, unit);
+    collect(row);
+    rows.nodeIds.insert(rows.nodeIds.end(), row.ids.begin(), row.ids.end());
+    for (std::size_t k = 0; k < row.ids.size(); ++k) rows.weights.push_back(row.forces[3 * k]);
+    rows.rowStart.push_back(static_cast<std::uint32_t>(rows.nodeIds.size()));
+  }
+  return rows;
 }
 
 void SurfaceForceMap::binQuadrature(const SurfaceQuadratureView& q) {

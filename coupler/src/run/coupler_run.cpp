@@ -334,6 +334,7 @@ class CouplerRun final : public ExchangeDriver {
       latest_.insert_or_assign(name, std::move(replies[i].message));
       keepViews(name);
     }
+    for (const auto& c : scene_.couplings) c->setupReference(outputs_);
     try {
       scene_.schedule->resolveTimeStep(critical, options_.force);
     } catch (const std::runtime_error& e) {

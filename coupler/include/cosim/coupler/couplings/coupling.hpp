@@ -131,6 +131,10 @@ class Coupling {
   virtual void stageSetup(std::map<std::string, InputAssembler>& /*inputs*/) const {}
   /// Maps outputs to inputs; records what it wants under /series/<name>.
   virtual void exchange(ExchangeContext& context) = 0;
+  /// The solvers' setup outputs: the reference configuration. Called once after
+  /// setup, also when a run resumes (before the checkpoint's replies replace
+  /// them), so what a coupling derives from it is the same in both.
+  virtual void setupReference(const std::map<std::string, proto::CouplingData::Reader>& /*outputs*/) {}
   /// What the run loses with a participant that died or hung (e.g. the unit
   /// cells a worker held), for the message that stops the run; empty if nothing.
   virtual std::string describeLoss(const std::string& /*solver*/) const { return {}; }

@@ -6,6 +6,8 @@
 // Both conserve the total force exactly; the point form also the moment.
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "cosim/coupler/mapping/cg_kernel.hpp"
@@ -39,6 +41,13 @@ struct NodalForces {
   std::vector<double> forces;  // 3 per id
 };
 
+/// Sparse rows of weights from points (vertices) to nodes, in CSR form like the
+/// vertex-to-node weights FEM exports.
+struct VertexNodeWeights {
+  std::vector<std::uint32_t> rowStart, nodeIds;
+  std::vector<double> weights;
+};
+
 class SurfaceForceMap {
  public:
   /// kernel: the CG kernel (Dirac selects Eq. 16); width: c in metres (ignored for Dirac).
@@ -46,10 +55,19 @@ class SurfaceForceMap {
   /// quadrature may be null for the Dirac kernel. Throws std::invalid_argument on inconsistent input.
   void map(const ContactsView& contacts, const SurfaceMeshView& mesh, const SurfaceQuadratureView* quadrature,
            NodalForces& out);
+  /// The CG weights G_i(x) = sum_q a_q N_i(x_q) / sum_q a_q, a_q = w_q W(|x_q - x|),
+  /// at each point x (what Eqs. 14-15 give a unit force at x): one row per point,
+  /// each summing to 1. Needs a kernel with a width; throws std::invalid_argument
+  /// when a point has no quadrature point within c.
+  VertexNodeWeights weightsAt(std::span<const double> points, const SurfaceQuadratureView& quadrature);
 
  private:
   void addPointForm(std::size_t contact, const ContactsView& c, const SurfaceMeshView& mesh);
   void addSmoothedForm(std::size_t contact, const ContactsView& c, const SurfaceQuadratureView& q);
+  /// Fills support_ with a_q for the quadrature points near x; returns their sum.
+  double gatherSupport(const double* x, const SurfaceQuadratureView& q);
+  void addSupport(double total, const SurfaceQuadratureView& q, const double* force);
+  std::invalid_argument noSupport(const std::string& what, const double* x) const;
   void binQuadrature(const SurfaceQuadratureView& q);
   void add(std::uint32_t node, double weight, const double* force);
   void collect(NodalForces& out);
