@@ -20,7 +20,7 @@ namespace {
 struct PdDemRun {
   std::filesystem::path dir = freshDirectory("pd_dem");
   /// Runs the scene with its schedule line replaced (empty: as written).
-  Finished run(const std::string& schedule = "") {
+  Finished run(const std::string& schedule = "", const std::vector<std::string>& sets = {}) {
     std::ifstream in(sourcePath("tests/coupling/pd_dem_short.yaml"));
     std::stringstream text;
     text << in.rdbuf();
@@ -31,9 +31,10 @@ struct PdDemRun {
     }
     const auto scene = dir / "scene.yaml";
     std::ofstream(scene) << s;
-    return cosim::testing::run({binary("coupler"), "run", scene.string(), "--out", (dir / "run").string(),
-                                "--no-progress"},
-                               50.0);
+    std::vector<std::string> argv{binary("coupler"), "run", scene.string(), "--out", (dir / "run").string(),
+                                  "--no-progress"};
+    for (const auto& set : sets) argv.insert(argv.end(), {"--set", set});
+    return cosim::testing::run(argv, 50.0);
   }
   nlohmann::json report() const {
     std::ifstream in(dir / "run" / "run_report.json");
@@ -136,6 +137,32 @@ TEST(PdDemContactRun, HeldKinematicsRunsAndAnUnknownModeIsRefused) {
   // The sphere moves 0.1 m/s; hybrid particles barely move: the forces differ little from extrapolated ones.
   EXPECT_LT(r.report()["figures"]["action_reaction_residual"].get<double>(), 1e-12);
   checkBalance(r);
+}
+
+// Hartmann's extreme cases: each is refused at its first exchange with the
+// limit it breaks, instead of running into a blast.
+TEST(PdDemExtremeCases, ContactStiffnessTimes1e4IsRefusedNamingTheHybridStep) {
+  PdDemRun r;
+  const auto done = r.run("", {"solvers.spheres.params.materials[0].young=1.0e12",
+                               "solvers.spheres.params.materials[1].young=1.0e12"});
+  EXPECT_EQ(done.code, 4) << done.out << done.err;
+  EXPECT_NE(done.err.find("above the critical step"), std::string::npos) << done.err;
+  EXPECT_NE(done.err.find("hybrid PD particles' contacts"), std::string::npos) << done.err;
+}
+
+TEST(PdDemExtremeCases, FiftyPdStepsPerDemStepAreRefusedNamingTheHybridStep) {
+  PdDemRun r;
+  const auto done = r.run("{kind: multirate, fine: block, dt: 2.0e-5, ratio: 50, order: coarse-first, end_time: 8.0e-3}");
+  EXPECT_EQ(done.code, 4) << done.out << done.err;
+  EXPECT_NE(done.err.find("dt = 0.001 s is above the critical step"), std::string::npos) << done.err;
+}
+
+TEST(PdDemExtremeCases, ASphereStartingInsideThePdBodyIsRefusedNamingBoth) {
+  PdDemRun r;
+  const auto done = r.run("", {"solvers.spheres.params.particles[0].sphere.position=[0.04, 0.04, 0.05]",
+                               "solvers.spheres.params.particles[0].sphere.driven=false"});
+  EXPECT_EQ(done.code, 4) << done.out << done.err;
+  EXPECT_NE(done.err.find("DEM particle 0 starts inside hybrid PD particle"), std::string::npos) << done.err;
 }
 
 }  // namespace

@@ -39,6 +39,7 @@ solvers:
         - {name: grain, density: 1000, young: 1.0e7, poisson: 0.25}
         - {name: pd-surface, density: 1100, young: 2.0e7, poisson: 0.3}
       hybrid: {material: pd-surface}
+      overlap_tolerance: 0.2   # the scene starts in contact: the sphere on A, E on C
       particles:
         - sphere: {position: [0, 0, 0.0195], radius: 0.01, material: grain}
       walls:

@@ -70,38 +70,61 @@ double solidVolume(const DemSystem& s) {
   return v;
 }
 
-double criticalTimeStep(const DemSystem& s) {
-  const Particles& p = s.particles;
-  if (p.size() == 0) return 0.0;
-  const NormalLaw& normal = s.contactLaw().normal();
+namespace {
+
+double fastestSpeed(const DemSystem& s) {
   double vmax = 0.0;
-  for (const Vec3& v : p.v) vmax = std::max(vmax, norm(v));
+  for (const Vec3& v : s.particles.v) vmax = std::max(vmax, norm(v));
   for (const auto& w : s.planes) vmax = std::max(vmax, norm(w.velocity));
+  return vmax;
+}
+
+/// The step that particle i's contacts allow when it is integrated under them.
+/// withRayleigh: also the Rayleigh wave step of the sphere's own material, which
+/// a PD particle standing in for a sphere does not have.
+double particleCriticalStep(const DemSystem& s, std::size_t i, double vmax, bool withRayleigh) {
+  const Particles& p = s.particles;
+  const NormalLaw& normal = s.contactLaw().normal();
+  const std::uint16_t a = p.material[i];
+  // Lightest pairing: this particle against an equal one (m* = m/2).
+  const double mEff = 0.5 * p.mass[i] * p.weight[i];
   double dt = std::numeric_limits<double>::max();
-  const std::size_t nmat = s.materials.size();
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    // A driven particle (a hybrid PD particle, an indenter) is not integrated:
-    // its partners' own terms limit the step. All driven: no limit (0).
-    if (p.driven[i]) continue;
-    const std::uint16_t a = p.material[i];
-    // Lightest pairing: this particle against an equal one (m* = m/2).
-    const double mEff = 0.5 * p.mass[i] * p.weight[i];
-    for (std::size_t b = 0; b < nmat; ++b) {
-      const PairMaterial& pm = s.materials.pair(a, static_cast<std::uint16_t>(b));
-      if (normal.isHertz()) {
-        // Rayleigh wave step (Li et al. 2005): pi R sqrt(rho/G) / (0.1631 nu + 0.8766).
-        const Material& m = s.materials[a];
-        const double rayleigh = std::numbers::pi * p.radius[i] * std::sqrt(m.density / m.shearModulus()) /
-                                (0.1631 * m.poisson + 0.8766);
-        dt = std::min(dt, rayleigh);
-        if (vmax > 0.0)
-          dt = std::min(dt, normal.contactTime(mEff, 0.5 * p.radius[i], 2.0 * vmax, pm) / std::numbers::pi);
-      } else if (pm.kn > 0.0) {
-        dt = std::min(dt, std::sqrt(mEff / pm.kn));
-      }
+  for (std::size_t b = 0; b < s.materials.size(); ++b) {
+    const PairMaterial& pm = s.materials.pair(a, static_cast<std::uint16_t>(b));
+    if (normal.isHertz()) {
+      // Rayleigh wave step (Li et al. 2005): pi R sqrt(rho/G) / (0.1631 nu + 0.8766).
+      const Material& m = s.materials[a];
+      const double rayleigh = std::numbers::pi * p.radius[i] * std::sqrt(m.density / m.shearModulus()) /
+                              (0.1631 * m.poisson + 0.8766);
+      if (withRayleigh) dt = std::min(dt, rayleigh);
+      if (vmax > 0.0) dt = std::min(dt, normal.contactTime(mEff, 0.5 * p.radius[i], 2.0 * vmax, pm) / std::numbers::pi);
+    } else if (pm.kn > 0.0) {
+      dt = std::min(dt, std::sqrt(mEff / pm.kn));
     }
   }
-  return dt == std::numeric_limits<double>::max() ? 0.0 : dt;
+  return dt;
+}
+
+double orZero(double dt) { return dt == std::numeric_limits<double>::max() ? 0.0 : dt; }
+
+}  // namespace
+
+double criticalTimeStep(const DemSystem& s) {
+  const Particles& p = s.particles;
+  const double vmax = fastestSpeed(s);
+  double dt = std::numeric_limits<double>::max();
+  // A driven particle (a hybrid PD particle, an indenter) is not integrated
+  // here: its partners' own terms limit the step. All driven: no limit (0).
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (!p.driven[i]) dt = std::min(dt, particleCriticalStep(s, i, vmax, true));
+  return orZero(dt);
+}
+
+double criticalTimeStep(const DemSystem& s, std::span<const std::uint32_t> integratedElsewhere) {
+  const double vmax = fastestSpeed(s);
+  double dt = std::numeric_limits<double>::max();
+  for (std::uint32_t i : integratedElsewhere) dt = std::min(dt, particleCriticalStep(s, i, vmax, false));
+  return orZero(dt);
 }
 
 }  // namespace cosim::dem

@@ -95,14 +95,28 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
 }
 
 // Unit cells relax in their own pseudo time: the coarse step does not bound them.
-double DemSolver::criticalDt() const { return cells_ ? 0.0 : criticalTimeStep(system_); }
+double DemSolver::criticalDt() const {
+  if (cells_) return 0.0;
+  const double own = criticalTimeStep(system_), hybrid = hybridCriticalDt();
+  return own > 0.0 && hybrid > 0.0 ? std::min(own, hybrid) : std::max(own, hybrid);
+}
+
+// PD integrates its hybrid particles under the contact forces returned to it
+// (Hartmann 2022 Sec. 3.2), so their contacts bound the coupled step as well.
+double DemSolver::hybridCriticalDt() const { return criticalTimeStep(system_, hybrids_.particleIndices()); }
 
 void DemSolver::checkDt(double dt, const std::string& where) {
   const double crit = criticalDt();
-  if (crit > 0.0 && dt > crit && !settings_.force)
+  if (crit > 0.0 && dt > crit && !settings_.force) {
+    const double hybrid = hybridCriticalDt();
+    const std::string whose = hybrid > 0.0 && hybrid <= crit
+                                  ? ", set by the hybrid PD particles' contacts: material '" +
+                                        system_.materials[settings_.hybridMaterial].name + "', their mass rho V"
+                                  : "";
     throw SolverError(Code::BAD_INPUT, where + ": dt = " + num(dt) + " s is above the critical step " + num(crit) +
-                                           " s (contact law " + system_.contactLaw().name() +
+                                           " s (contact law " + system_.contactLaw().name() + whose +
                                            "); lower dt or set params.force: true");
+  }
   checkedDt_ = dt;
 }
 
@@ -174,7 +188,9 @@ void DemSolver::applyHybridParticles(proto::CouplingData::Reader inputs) {
                                            " hybrid particle sets sent; a DEM solver takes one (one PD solver)");
   for (auto h : inputs.getHybridParticles()) {
     try {
-      if (hybrids_.apply(h, system_, settings_.hybridMaterial)) system_.initialize();
+      if (!hybrids_.apply(h, system_, settings_.hybridMaterial)) continue;
+      system_.initialize();
+      if (system_.step == 0) hybrids_.checkStartOverlaps(system_, settings_.overlapTolerance);
     } catch (const std::invalid_argument& e) {
       throw SolverError(Code::BAD_INPUT, e.what());
     }
@@ -215,7 +231,10 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     return;
   }
   if (request.dt != checkedDt_) checkDt(request.dt, "advance (exchange " + std::to_string(request.exchange) + ")");
+  const std::size_t hybridsBefore = hybrids_.size();
   applyInputs(request.inputs);
+  // Hybrid particles arrive with the first exchange, after setup reported the step.
+  if (hybrids_.size() != hybridsBefore) checkDt(request.dt, "exchange " + std::to_string(request.exchange));
   contactSums_.assign(system_.meshes.size(), {});
   hybrids_.beginInterval();
   zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});

@@ -2,6 +2,7 @@
 // Measures of a DEM state: energies, coordination, porosity, Love-Weber
 // stress, and the Hertz-aware critical time step.
 #include <array>
+#include <span>
 
 #include "cosim/dem/dem_system.hpp"
 
@@ -37,5 +38,10 @@ long relax(DemSystem& s, double dt, double tolerance, long maxSteps, long every 
 /// Largest stable step: sqrt(m*/k) for linear springs; for Hertz the smaller of
 /// the Rayleigh step and the Hertz contact time at twice the fastest speed / pi.
 double criticalTimeStep(const DemSystem& s);
+/// The step the contacts of driven particles allow when another solver
+/// integrates them under the forces returned to it (hybrid PD particles, whose
+/// mass rho V the hybrid material's density gives): the Hertz contact time at
+/// twice the fastest speed / pi, or sqrt(m*/k); 0 for none or at rest.
+double criticalTimeStep(const DemSystem& s, std::span<const std::uint32_t> integratedElsewhere);
 
 }  // namespace cosim::dem

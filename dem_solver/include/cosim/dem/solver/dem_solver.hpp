@@ -27,6 +27,8 @@ class DemSolver final : public wire::Solver {
   double time() const override { return cells_ ? cells_->time : system_.time; }
   std::uint64_t step() const override { return cells_ ? cells_->steps : system_.step; }
   double criticalDt() const override;
+  /// The step the hybrid PD particles' contacts allow (0 without hybrids).
+  double hybridCriticalDt() const;
   wire::NamedValues energies() const override;
   std::size_t outputWordsHint() const override { return 2048 + 32 * system_.particles.size(); }
   const HybridSpheres& hybrids() const { return hybrids_; }

@@ -42,6 +42,10 @@ class HybridSpheres {
   /// The mean force of the last interval (before any: the current forces).
   void fill(proto::HybridForces::Builder out, const Particles& p) const;
   const std::vector<std::uint32_t>& particleIndices() const { return index_; }
+  /// At the start of a run: a hybrid sphere overlapping another sphere (not of
+  /// its own PD family) by more than tolerance x the smaller radius would start
+  /// with a blast; throws std::invalid_argument naming the PD id and the partner.
+  void checkStartOverlaps(const DemSystem& system, double tolerance) const;
 
  private:
   void add(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material);
