@@ -7,6 +7,8 @@ struct UnitCellJobs {
   cellIds @0 :List(UInt32);
   strainIncrements @1 :List(Float64);   # 9 per cell, corotational, row-major (Liu Eq. 60)
   dt @2 :Float64;                       # coarse time step the increment spans
+  positions @3 :List(Float64);          # 3 per cell: its quadrature point's reference position
+                                        # (the nonlocal operator's neighbour sets, Liu Eqs. 58-59)
 }
 
 struct UnitCellResults {

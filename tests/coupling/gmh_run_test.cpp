@@ -34,7 +34,7 @@ class GmhRun : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(dir_);
   }
 
-  std::string scene(int coarseSteps, const std::string& secondFirstId = "1") const {
+  std::string scene(int coarseSteps, const std::string& secondFirstId = "1", const std::string& couplingExtra = "") const {
     const auto path = dir_ / "gmh.yaml";
     const std::string cell = (cellDir_ / "cell.ckpt").string();
     std::ofstream(path) << "scene: gmh-two-cells\n"
@@ -65,7 +65,7 @@ class GmhRun : public ::testing::Test {
     params:
       unit_cells: {file: )" << cell << ", first_id: " << secondFirstId << R"(, count: 1, max_steps: 20000, load_steps: 20}
 couplings:
-  - {name: cells, kind: gmh, fem: block, workers: [cells_a, cells_b]}
+  - {name: cells, kind: gmh, fem: block, workers: [cells_a, cells_b])" << couplingExtra << R"(}
 output: {dir: )" << (dir_ / "run").string() << "}\n";
     return path.string();
   }
@@ -88,6 +88,28 @@ TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
   EXPECT_GT(pressure.back() - pressure.front(), 2e3);
   EXPECT_LT(pressure.back() - pressure.front(), 30e3);
   for (std::size_t k = 1; k < jobs.size(); ++k) EXPECT_EQ(jobs[k], 2.0);
+}
+
+TEST_F(GmhRun, NonlocalIncrementsOfAUniformCompressionAreTheLocalOnes) {
+  // Both element centres (0.01 m apart) lie within R = 0.015 m of each other:
+  // each cell gets the bell-weighted mean of two equal increments (Liu Eq. 58).
+  const auto local = run({binary("coupler"), "run", scene(10), "--no-progress"}, 120.0);
+  ASSERT_EQ(local.code, 0) << local.out << local.err;
+  const auto localPressure = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5").readArray("/series/cells/mean_pressure");
+  const auto f = run({binary("coupler"), "run", scene(10, "1", ", nonlocal: {radius: 0.015}"), "--no-progress"}, 120.0);
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  EXPECT_NE((f.out + f.err).find("nonlocal operator over 2 points, R = 0.015000 m, 2.000000 neighbours"),
+            std::string::npos) << f.out << f.err;
+  const auto pressure = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5").readArray("/series/cells/mean_pressure");
+  ASSERT_EQ(pressure.size(), localPressure.size());
+  for (std::size_t k = 0; k < pressure.size(); ++k) EXPECT_NEAR(pressure[k], localPressure[k], 1e-6 * localPressure[k]);
+  EXPECT_GT(pressure.back(), pressure.front());
+}
+
+TEST_F(GmhRun, CheckRefusesANonPositiveNonlocalRadius) {
+  const auto f = run({binary("coupler"), "check", scene(5, "1", ", nonlocal: {radius: 0}")}, 30.0);
+  EXPECT_EQ(f.code, 2);
+  EXPECT_NE((f.out + f.err).find("radius"), std::string::npos) << f.out << f.err;
 }
 
 TEST_F(GmhRun, OverlappingWorkersAreRefused) {

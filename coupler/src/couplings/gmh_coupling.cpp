@@ -9,15 +9,20 @@
 // force index (Eq. 57) and relaxation steps into one result list for FEM.
 // Pair it with `schedule: {kind: multirate, fine: [workers...], ratio: 1,
 // order: coarse-first}`: FEM predicts, then the workers answer.
+// `nonlocal: {radius: R}` passes the increments through the staggered nonlocal
+// operator (Liu Eqs. 58-59, A.3-A.6; NonlocalOperator) before they go out.
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <ostream>
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/mapping/nonlocal_operator.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/wire/arrays.hpp"
+#include "cosim/wire/log.hpp"
 
 namespace cosim::coupler {
 namespace {
@@ -50,6 +55,11 @@ class GmhCoupling final : public Coupling {
       workers_.push_back(w);
     }
     if (workers_.empty()) m.error("workers", given ? "is empty" : "missing: the dem_solver workers that hold the unit cells");
+    if (m.has("nonlocal")) {
+      config::MapReader nl(m.node("nonlocal"), m.keyPath("nonlocal"), m.diagnostics());
+      radius_ = nl.requireNumber("radius", config::Range::positive());
+      nl.finish();
+    }
   }
 
   std::string kind() const override { return "gmh"; }
@@ -66,6 +76,7 @@ class GmhCoupling final : public Coupling {
     out << fem_ << " unit-cell jobs -> " << workers_.size() << " worker(s):";
     for (const auto& w : workers_) out << " " << w;
     out << " (each cell stays on the worker that loaded it)";
+    if (radius_ > 0.0) out << "; nonlocal strain increments, bell kernel, R = " << radius_ << " m (Liu Eqs. 58-59)";
   }
 
   std::string describeLoss(const std::string& solver) const override {
@@ -110,31 +121,59 @@ class GmhCoupling final : public Coupling {
   }
 
   void dispatch(ExchangeContext& ctx) {
+    collectJobs(ctx);
+    if (radius_ > 0.0) smooth();
     for (auto& [w, jobs] : jobs_) jobs.ids.clear(), jobs.increments.clear();
-    double dt = 0.0;
-    std::size_t count = 0;
+    const auto& inc = radius_ > 0.0 ? smoothed_ : increments_;
+    for (std::size_t k = 0; k < ids_.size(); ++k) {
+      auto owner = owner_.find(ids_[k]);
+      if (owner == owner_.end())
+        throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) +
+                                 ": FEM sent a job for unit cell " + std::to_string(ids_[k]) +
+                                 ", which no worker holds (" + std::to_string(owner_.size()) + " cells in the pool)");
+      auto& jobs = jobs_[owner->second];
+      jobs.ids.push_back(ids_[k]);
+      jobs.increments.insert(jobs.increments.end(), inc.begin() + 9 * static_cast<std::ptrdiff_t>(k),
+                             inc.begin() + 9 * static_cast<std::ptrdiff_t>(k + 1));
+    }
+    for (auto& [w, jobs] : jobs_)
+      if (!jobs.ids.empty()) ctx.inputs[w].stageUnitCellJobs({jobs.ids, jobs.increments, dt_});
+    if (ctx.series) ctx.series->append(name() + "/jobs", static_cast<double>(ids_.size()));
+  }
+
+  /// FEM's jobs of this step as flat arrays, in its order.
+  void collectJobs(const ExchangeContext& ctx) {
+    ids_.clear(), increments_.clear(), positions_.clear();
     for (auto list : ctx.outputs.at(fem_).getUnitCellJobs()) {
       const auto ids = wire::view(list.getCellIds());
       const auto inc = wire::view(list.getStrainIncrements());
-      dt = list.getDt();
-      for (std::size_t k = 0; k < ids.size(); ++k) {
-        auto owner = owner_.find(ids[k]);
-        if (owner == owner_.end())
-          throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) +
-                                   ": FEM sent a job for unit cell " + std::to_string(ids[k]) +
-                                   ", which no worker holds (" + std::to_string(owner_.size()) + " cells in the pool)");
-        auto& jobs = jobs_[owner->second];
-        jobs.ids.push_back(ids[k]);
-        jobs.increments.insert(jobs.increments.end(), inc.begin() + 9 * static_cast<std::ptrdiff_t>(k),
-                               inc.begin() + 9 * static_cast<std::ptrdiff_t>(k + 1));
-      }
-      count += ids.size();
+      const auto pos = wire::view(list.getPositions());
+      if (inc.size() != 9 * ids.size() || (!pos.empty() && pos.size() != 3 * ids.size()))
+        throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(ctx.exchange) + ": FEM sent " +
+                                 std::to_string(ids.size()) + " jobs with " + std::to_string(inc.size()) +
+                                 " increment and " + std::to_string(pos.size()) + " position values (9 and 3 per job)");
+      dt_ = list.getDt();
+      ids_.insert(ids_.end(), ids.begin(), ids.end());
+      increments_.insert(increments_.end(), inc.begin(), inc.end());
+      positions_.insert(positions_.end(), pos.begin(), pos.end());
     }
-    for (auto& [w, jobs] : jobs_)
-      if (!jobs.ids.empty()) ctx.inputs[w].stageUnitCellJobs({jobs.ids, jobs.increments, dt});
-    if (ctx.series) ctx.series->append(name() + "/jobs", static_cast<double>(count));
   }
 
+  /// Liu Eq. 58: every cell gets the bell-weighted mean increment of its neighbourhood.
+  void smooth() {
+    if (!nonlocal_ || nonlocalIds_ != ids_) {
+      if (positions_.size() != 3 * ids_.size())
+        throw std::runtime_error("coupling '" + name() + "': nonlocal needs the quadrature point positions of the jobs, "
+                                 "which '" + fem_ + "' did not send");
+      nonlocal_.emplace(positions_, radius_);
+      nonlocalIds_ = ids_;
+      log::info("coupling '" + name() + "': nonlocal operator over " + std::to_string(ids_.size()) +
+                " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
+                " neighbours per point on average");
+    }
+    smoothed_.resize(increments_.size());
+    nonlocal_->apply(increments_, 9, smoothed_);
+  }
   void gather(ExchangeContext& ctx) {
     for (const auto& w : workers_)
       if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
@@ -193,6 +232,11 @@ class GmhCoupling final : public Coupling {
 
   std::string fem_;
   std::vector<std::string> workers_;
+  double radius_ = 0.0;  // nonlocal interaction radius R; 0: local
+  std::vector<std::uint32_t> ids_, nonlocalIds_;
+  std::vector<double> increments_, positions_, smoothed_;
+  double dt_ = 0.0;
+  std::optional<NonlocalOperator> nonlocal_;
   std::map<std::uint32_t, std::string> owner_;              // cell id -> worker
   std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
   std::map<std::string, WorkerJobs> jobs_;

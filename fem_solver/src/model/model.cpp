@@ -97,6 +97,11 @@ void Model::computeMass() {
   for (double& m : lumpedMass_) m *= massScale_;
 }
 
+Vec3 Model::materialPoint(std::size_t e, int q) const {
+  const Vec3 xi = formulation_->pointsPerElement() == 1 ? Vec3::Zero() : hex8::gaussPoint(q);
+  return mesh_.elementCoordinates(e).transpose() * hex8::shape(xi);
+}
+
 void Model::setArlequinWeight(const WeightProfile& profile) {
   if (const std::string why = profile.problem(); !why.empty()) throw InputError("weight profile: " + why);
   const std::size_t ne = mesh_.numElements();
@@ -109,11 +114,7 @@ void Model::setArlequinWeight(const WeightProfile& profile) {
     for (int q = 0; q < 8; ++q)
       gaussWeight_[8 * e + static_cast<std::size_t>(q)] =
           1.0 - profile(X.transpose() * hex8::shape(hex8::gaussPoint(q)));
-    if (np == 1) {
-      pointScale[e] = 1.0 - profile(X.transpose() * hex8::shape(Vec3::Zero()));
-    } else {
-      for (int q = 0; q < 8; ++q) pointScale[8 * e + static_cast<std::size_t>(q)] = gaussWeight_[8 * e + static_cast<std::size_t>(q)];
-    }
+    for (int q = 0; q < np; ++q) pointScale[e * static_cast<std::size_t>(np) + static_cast<std::size_t>(q)] = 1.0 - profile(materialPoint(e, q));
   }
   formulation_->setPointScale(std::move(pointScale));
   // Body forces were integrated with the unweighted mass: redo them.

@@ -517,6 +517,12 @@ void FemSolver::fillUnitCellJobs(proto::CouplingData::Builder outputs, double dt
   jobs.setDt(dt);
   auto ids = jobs.initCellIds(static_cast<unsigned>(np));
   auto inc = jobs.initStrainIncrements(static_cast<unsigned>(9 * np));
+  auto positions = wire::view(jobs.initPositions(static_cast<unsigned>(3 * np)));
+  const int perElement = model_->formulation().pointsPerElement();
+  for (std::size_t p = 0; p < np; ++p) {
+    const Vec3 x = model_->materialPoint(p / static_cast<std::size_t>(perElement), static_cast<int>(p % static_cast<std::size_t>(perElement)));
+    for (int d = 0; d < 3; ++d) positions[3 * p + static_cast<std::size_t>(d)] = x[d];
+  }
   for (std::size_t p = 0; p < np; ++p) {
     const Mat3 F0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pointF_.data() + 9 * p);
     const Mat3 F1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(Fnew.data() + 9 * p);

@@ -142,6 +142,9 @@ class Model {
   /// 1 - w(X) at its material points (Cheng 2022 Eq. 25); surface tractions
   /// stay unweighted. Throws naming a node left without mass.
   void setArlequinWeight(const WeightProfile& profile);
+  /// Reference position of material point q of element e: the element centre
+  /// for one-point quadrature, else Gauss point q.
+  Vec3 materialPoint(std::size_t e, int q) const;
   /// Multiplies all masses (mass scaling for explicit steps).
   void setMassScale(double s);
   double massScale() const { return massScale_; }

@@ -1,0 +1,5 @@
+# The GMH nonlocal strain operator (Liu 2016 Eqs. 58-59, A.3-A.6).
+cosim_test(coupling_nonlocal_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/nonlocal_operator_test.cpp
+  LIBS cosim_coupler
+  TIMEOUT 60)
