@@ -20,7 +20,8 @@ namespace {
 struct PdDemRun {
   std::filesystem::path dir = freshDirectory("pd_dem");
   /// Runs the scene with its schedule line replaced (empty: as written).
-  Finished run(const std::string& schedule = "", const std::vector<std::string>& sets = {}) {
+  Finished run(const std::string& schedule = "", const std::vector<std::string>& sets = {},
+               const std::string& analysis = "") {
     std::ifstream in(sourcePath("tests/coupling/pd_dem_short.yaml"));
     std::stringstream text;
     text << in.rdbuf();
@@ -28,6 +29,10 @@ struct PdDemRun {
     if (!schedule.empty()) {
       const auto at = s.find("schedule: {");
       s.replace(at, s.find('\n', at) - at, "schedule: " + schedule);
+    }
+    if (!analysis.empty()) {
+      const auto at = s.find("analysis: {");
+      s.replace(at, s.find('\n', at) - at, "analysis: " + analysis);
     }
     const auto scene = dir / "scene.yaml";
     std::ofstream(scene) << s;
@@ -163,6 +168,39 @@ TEST(PdDemExtremeCases, ASphereStartingInsideThePdBodyIsRefusedNamingBoth) {
                                "solvers.spheres.params.particles[0].sphere.driven=false"});
   EXPECT_EQ(done.code, 4) << done.out << done.err;
   EXPECT_NE(done.err.find("DEM particle 0 starts inside hybrid PD particle"), std::string::npos) << done.err;
+}
+
+// The load-displacement curve of driven spheres (H2's metric): recorded every
+// exchange, and compared with a stored run of another schedule.
+TEST(PdDemForceDisplacement, RecordsTheCurveAndComparesSchedulesWithAStoredRun) {
+  PdDemRun reference;
+  const std::string analysis = "{reference: force-displacement, dem: spheres, zone: indenter, direction: [0, 0, -1]";
+  ASSERT_EQ(reference.run("", {}, analysis + "}").code, 0);
+  const auto stored = reference.dir / "run" / "coupler.h5";
+  {
+    auto h5 = io::H5File::openReadOnly(stored);
+    const auto d = h5.readArray("/series/analysis/displacement");
+    const auto f = h5.readArray("/series/analysis/force");
+    ASSERT_EQ(d.size(), f.size());
+    ASSERT_GT(d.size(), 100u);
+    EXPECT_NEAR(d.back(), 0.1 * 8.0e-3, 1e-9);  // driven at 0.1 m/s for 8 ms
+    EXPECT_GT(f.back(), 10.0);                   // pressed about 0.5 mm into the block
+    for (std::size_t k = 1; k < d.size(); ++k) EXPECT_GT(d[k], d[k - 1]);
+  }
+  EXPECT_GT(reference.report()["figures"]["max_force_N"].get<double>(), 10.0);
+
+  PdDemRun staggered;
+  const auto done = staggered.run("{kind: multirate, fine: block, dt: 1.0e-5, ratio: 2, order: coarse-first, end_time: 8.0e-3}",
+                                  {}, analysis + ", reference_run: " + stored.string() + "}");
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  const auto error = staggered.report()["errors"][0];
+  EXPECT_EQ(error["name"], "force_rms_error");
+  EXPECT_GT(error["value"].get<double>(), 0.0);   // another schedule: not the same curve
+  EXPECT_LT(error["value"].get<double>(), 0.05);  // but close to it
+
+  PdDemRun wrong;  // a stored run without this analysis
+  const auto bad = wrong.run("", {}, analysis + ", reference_run: " + (reference.dir / "missing.h5").string() + "}");
+  EXPECT_NE(bad.code, 0);
 }
 
 }  // namespace

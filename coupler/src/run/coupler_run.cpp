@@ -447,7 +447,9 @@ class CouplerRun final : public ExchangeDriver {
       try {
         scene_.reference->conclude(report_);
       } catch (const std::exception& e) {
-        log::error(std::string("analysis: ") + e.what());
+        // The run itself went through, but its error figure is missing: not a success.
+        if (report_.exitCode == kExitOk) finish("failed", std::string("analysis: ") + e.what(), kExitFailure);
+        else log::error(std::string("analysis: ") + e.what());
       }
     }
     try {

@@ -51,8 +51,7 @@ class WaveStations final : public Reference {
     if (members_.empty()) pickStations(states);
     const auto v = wire::view(states.getVelocities());
     for (std::size_t s = 0; s < members_.size(); ++s) sample_[s] = v[3 * members_[s] + component_];
-    times_.push_back(o.time);
-    record_.insert(record_.end(), sample_.begin(), sample_.end());
+    record_.append(o.time, sample_);
     const double e = energy(o);
     if (o.exchange == 0) initialEnergy_ = e;
     finalEnergy_ = e;
@@ -61,13 +60,14 @@ class WaveStations final : public Reference {
 
   void conclude(RunReport& report) const override {
     if (!referenceRun_.empty()) {
-      const double e = errorAgainstReference();
+      const double e = rmsAgainstStoredRun(record_, referenceRun_, "analysis/station_velocity");
       report.errors.push_back({"station_velocity_rms_error", "stored run " + referenceRun_, "of the peak", e});
     }
     report.figures["dissipation_ratio"] = initialEnergy_ > 0.0 ? (initialEnergy_ - finalEnergy_) / initialEnergy_ : 0.0;
     for (std::size_t s = 0; s < members_.size(); ++s) {
       double peak = 0.0;
-      for (std::size_t t = 0; t < times_.size(); ++t) peak = std::max(peak, std::abs(record_[t * members_.size() + s]));
+      for (std::size_t t = 0; t < record_.times.size(); ++t)
+        peak = std::max(peak, std::abs(record_.values[t * members_.size() + s]));
       report.figures["station_" + std::to_string(s) + "_peak_velocity"] = peak;
     }
   }
@@ -102,6 +102,7 @@ class WaveStations final : public Reference {
       members_.push_back(best);
     }
     sample_.assign(members_.size(), 0.0);
+    record_.perTime = members_.size();
   }
 
   double energy(const Observation& o) const {
@@ -110,48 +111,12 @@ class WaveStations final : public Reference {
     return e;
   }
 
-  /// This run's record of station s at time t (linear between exchanges).
-  double sampleAt(std::size_t s, double t) const {
-    const std::size_t n = members_.size();
-    if (times_.size() < 2) return record_[s];
-    const auto it = std::lower_bound(times_.begin(), times_.end(), t);
-    const auto k = static_cast<std::size_t>(
-        std::clamp<std::ptrdiff_t>(it - times_.begin(), 1, static_cast<std::ptrdiff_t>(times_.size()) - 1));
-    const double t0 = times_[k - 1], t1 = times_[k];
-    const double a = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
-    return (1.0 - a) * record_[(k - 1) * n + s] + a * record_[k * n + s];
-  }
-
-  double errorAgainstReference() const {
-    const auto h5 = io::H5File::openReadOnly(referenceRun_);
-    const auto refTimes = h5.readArray("/series/time");
-    const auto ref = h5.readArray("/series/analysis/station_velocity");
-    const std::size_t n = members_.size();
-    if (refTimes.empty() || ref.size() != refTimes.size() * n)
-      throw std::runtime_error("analysis.reference_run: " + referenceRun_ + " holds " + std::to_string(ref.size()) +
-                               " station samples for " + std::to_string(refTimes.size()) + " times; this run has " +
-                               std::to_string(n) + " stations (run the reference with the same stations)");
-    double sum = 0.0, peak = 0.0;
-    std::size_t count = 0;
-    for (std::size_t t = 0; t < refTimes.size(); ++t) {
-      if (refTimes[t] < times_.front() || refTimes[t] > times_.back()) continue;
-      for (std::size_t s = 0; s < n; ++s) {
-        const double diff = sampleAt(s, refTimes[t]) - ref[t * n + s];
-        sum += diff * diff;
-        peak = std::max(peak, std::abs(ref[t * n + s]));
-        ++count;
-      }
-    }
-    if (count == 0 || !(peak > 0.0))
-      throw std::runtime_error("analysis.reference_run: " + referenceRun_ + " does not overlap this run in time");
-    return std::sqrt(sum / static_cast<double>(count)) / peak;
-  }
-
   std::string dem_, zone_, referenceRun_;
   std::vector<double> stations_;       // 3 per station
   std::size_t component_ = 1;
   std::vector<std::size_t> members_;   // index in the zone of each station's particle
-  std::vector<double> sample_, times_, record_;  // record_: stations per time
+  std::vector<double> sample_;
+  TimeRecord record_;  // the stations' velocities per time
   double initialEnergy_ = 0.0, finalEnergy_ = 0.0;
 };
 

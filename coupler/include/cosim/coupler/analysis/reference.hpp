@@ -6,6 +6,7 @@
 // name scenes use under `analysis: {reference: <name>, ...}`.
 #include <map>
 #include <set>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,24 @@ class Reference {
 /// The particle states a DEM solver sent for one of its zones (params.zones);
 /// throws naming the solver and zone when it sent none.
 proto::ParticleStates::Reader zoneStates(const Observation& o, const std::string& solver, const std::string& zone);
+
+/// A run's record over time: `perTime` values per entry of `times`.
+struct TimeRecord {
+  std::vector<double> times, values;
+  std::size_t perTime = 1;
+  void append(double t, std::span<const double> v) {
+    times.push_back(t);
+    values.insert(values.end(), v.begin(), v.end());
+  }
+  /// Column c at time t, linear between the recorded times, held beyond them.
+  double at(std::size_t c, double t) const;
+};
+
+/// The error of `record` against the same dataset of a stored run (its
+/// coupler.h5): sqrt(mean over the stored times both runs cover and over the
+/// columns of (record(t) - stored(t))^2) / max |stored|. Throws naming the
+/// file when it holds another number of columns or does not overlap in time.
+double rmsAgainstStoredRun(const TimeRecord& record, const std::string& file, const std::string& dataset);
 
 using ReferenceRegistry = Registry<Reference, config::MapReader&, const std::vector<SolverSpec>&>;
 
