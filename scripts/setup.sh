@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build pkg-config
           libeigen3-dev libzmq3-dev cppzmq-dev capnproto libcapnp-dev
-          libhdf5-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev
+          libhdf5-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev libsuitesparse-dev
           python3-numpy python3-h5py python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do
