@@ -5,9 +5,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# libsuitesparse-dev: CHOLMOD, the FEM's supernodal direct solver;
+# libopenblas0-openmp: an optimised BLAS for it (Debian's alternatives make it
+# libblas.so.3; the reference BLAS makes the factorisation several times slower).
 packages=(build-essential cmake ninja-build pkg-config
           libeigen3-dev libzmq3-dev cppzmq-dev capnproto libcapnp-dev
-          libhdf5-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev
+          libhdf5-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev libsuitesparse-dev libopenblas0-openmp
           python3-numpy python3-h5py python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do

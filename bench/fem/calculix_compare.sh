@@ -1,31 +1,43 @@
 #!/usr/bin/env bash
 # fem_solver against CalculiX (Debian's calculix-ccx) on scene C1's beam:
-# the 0.8 x 0.8 x 12 m cantilever, 2 x 30 x 2 hexahedra, E = 1e8 Pa, nu = 0,
-# clamped at y = 0, a 100 N tip load as a uniform traction on the end face.
-# Same mesh, same consistent nodal loads; CalculiX C3D8I (incompatible modes)
-# and C3D8 (full integration), geometrically linear static step, against
-# fem_solver's incompatible-modes and full hexahedra (finite-strain
-# St. Venant-Kirchhoff static solve; at this load the rotation is 0.002 rad).
-# Prints the mean tip deflection of both codes, their difference, the
-# Timoshenko beam value and each code's wall time.
-#   bench/fem/calculix_compare.sh [BUILD_DIR] [DIVISIONS "nx ny nz"]   (default build, "2 30 2")
-# Installs Debian's calculix-ccx package when `ccx` is missing.
+# the 0.8 x 0.8 x 12 m cantilever, E = 1e8 Pa, nu = 0, clamped at y = 0, a
+# 100 N tip load as a uniform traction on the end face. Same mesh, same
+# consistent nodal loads; CalculiX C3D8I (incompatible modes) and C3D8 (full
+# integration) in a geometrically linear static step, against fem_solver's
+# incompatible-modes and full hexahedra in its linear static analysis
+# (integrator linear: true, K_0 u = f with the default direct solver).
+# For every mesh and element: free dofs, the mean tip deflection of both
+# codes and their relative difference, each code's wall and CPU time, and the
+# wall-time ratio fem_solver / CalculiX. fem_solver's time includes the
+# coupler, process start-up and HDF5 output; CalculiX's its input parsing and
+# .frd/.dat output.
+#   bench/fem/calculix_compare.sh [BUILD_DIR] [MESH ...]
+# MESH is "nx ny nz"; default "2 30 2" "8 120 8" "10 300 10" (810, 29160 and
+# 108900 free dofs). Installs Debian's calculix-ccx package when `ccx` is missing.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build=$(cd "${1:-$root/build}" && pwd)
-read -r nx ny nz <<< "${2:-2 30 2}"
+shift || true
+meshes=("$@")
+[ ${#meshes[@]} -gt 0 ] || meshes=("2 30 2" "8 120 8" "10 300 10")
 if ! command -v ccx > /dev/null; then
   sudo=""
   [ "$(id -u)" -ne 0 ] && sudo="sudo"
   echo "installing Debian's calculix-ccx package" >&2
   $sudo apt-get install -y -qq calculix-ccx > /dev/null
 fi
+# OpenBLAS 0.3.21 (Debian 12; CHOLMOD's BLAS once libopenblas0 is installed)
+# does not recognise CPUs newer than itself (the development VM's Xeon, family
+# 6 model 207) and falls back to generic Prescott kernels, which nearly
+# doubles the factorisation time; its SkylakeX kernels run on any AVX-512 CPU.
+if [ -z "${OPENBLAS_CORETYPE:-}" ] && grep -qw avx512f /proc/cpuinfo; then export OPENBLAS_CORETYPE=SkylakeX; fi
 work=$(mktemp -d /tmp/ccx-compare.XXXXXX)
 cd "$work"
 
 # --- CalculiX inputs: nodes on the box grid, C3D8(I) in Abaqus node order,
 # consistent nodal forces of the 156.25 Pa end-face traction (bilinear faces).
-/usr/bin/python3 - "$nx" "$ny" "$nz" <<'PY'
+write_ccx_inputs() {  # nx ny nz
+/usr/bin/python3 - "$1" "$2" "$3" <<'PY'
 import sys
 nx, ny, nz = map(int, sys.argv[1:])
 X0, X1, Y1, Z1, traction = -0.4, 0.4, 12.0, 0.8, -156.25
@@ -65,6 +77,7 @@ for etype in ("C3D8I", "C3D8"):
         for n, v in sorted(loads.items()): f.write(f"{n}, 3, {v:.12g}\n")
         f.write("*NODE PRINT, NSET=TIP\nU\n*END STEP\n")
 PY
+}
 
 tip_ccx() {  # mean U3 of the TIP nodes from the .dat file
   /usr/bin/python3 - "$1" <<'PY'
@@ -90,23 +103,43 @@ tip = np.isclose(x[:, 1], x[:, 1].max())
 print(u[tip, 2].mean())
 PY
 }
-now() { date +%s.%N; }
+# Runs a command with its output in a log file; prints "wall cpu" in seconds
+# (cpu: user + system of the command and its children).
+timed() {  # log command...
+  /usr/bin/python3 - "$@" <<'PY'
+import resource, subprocess, sys, time
+log, cmd = sys.argv[1], sys.argv[2:]
+t0 = time.monotonic()
+with open(log, "w") as out:
+    rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT)
+wall = time.monotonic() - t0
+r = resource.getrusage(resource.RUSAGE_CHILDREN)
+if rc != 0:
+    sys.exit(f"{' '.join(cmd)} failed ({rc}); see {log}")
+print(f"{wall:.3f} {r.ru_utime + r.ru_stime:.3f}")
+PY
+}
 
-E=1.0e8; I=$(python3 -c "print(0.8**4/12)"); G=$(python3 -c "print(1.0e8/2)")
 timo=$(python3 -c "P=100; L=12; E=1e8; I=0.8**4/12; A=0.64; G=E/2; k=5/6; print(-(P*L**3/(3*E*I) + P*L/(k*G*A)))")
-printf "%-20s %-16s %-16s %-10s %-10s %-10s\n" "formulation" "fem_solver [m]" "CalculiX [m]" "diff" "fem [s]" "ccx [s]"
-for pair in "incompatible-modes:C3D8I" "full:C3D8"; do
-  form=${pair%%:*}; etype=${pair##*:}
-  t0=$(now); ccx -i "cant_$etype" > "ccx_$etype.log" 2>&1; t1=$(now)
-  c=$(tip_ccx "cant_$etype.dat")
-  t2=$(now)
-  "$build/bin/coupler" run "$root/configs/fem/cantilever_static.yaml" --out "$work/fem_$form" --no-progress \
-    --set solvers.beam.params.formulation="$form" \
-    --set "solvers.beam.params.mesh.box.divisions=[$nx, $ny, $nz]" > "fem_$form.log" 2>&1
-  t3=$(now)
-  f=$(tip_fem "$work/fem_$form/beam.h5")
-  python3 -c "import sys; f, c, a, b, d, e = map(float, sys.argv[1:7]); print(f'{sys.argv[7]:<20s} {f:<16.6e} {c:<16.6e} {abs(f - c) / abs(c):<10.2e} {b - a:<10.2f} {e - d:<10.2f}')" \
-    "$f" "$c" "$t2" "$t3" "$t0" "$t1" "$form"
+echo "load average: $(cut -d' ' -f1-3 /proc/loadavg); $(nproc) cores; OMP_NUM_THREADS=${OMP_NUM_THREADS:-unset};" \
+  "BLAS: $(readlink -f /usr/lib/x86_64-linux-gnu/libblas.so.3 2>/dev/null || echo unknown), OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-unset}"
+printf "%-10s %7s %-20s %-14s %-14s %-9s %8s %8s %8s %8s %7s\n" "mesh" "dofs" "formulation" "fem_solver [m]" \
+  "CalculiX [m]" "diff" "fem [s]" "ccx [s]" "fem cpu" "ccx cpu" "fem/ccx"
+for mesh in "${meshes[@]}"; do
+  read -r nx ny nz <<< "$mesh"
+  write_ccx_inputs "$nx" "$ny" "$nz"
+  dofs=$((3 * (nx + 1) * (nz + 1) * ny))
+  for pair in "incompatible-modes:C3D8I" "full:C3D8"; do
+    form=${pair%%:*}; etype=${pair##*:}
+    read -r ccx_wall ccx_cpu <<< "$(timed "ccx_$etype.log" ccx -i "cant_$etype")"
+    c=$(tip_ccx "cant_$etype.dat")
+    out="$work/fem_${form}_${nx}x${ny}x${nz}"
+    read -r fem_wall fem_cpu <<< "$(timed "$out.log" "$build/bin/coupler" run "$root/configs/fem/cantilever_static.yaml" \
+      --out "$out" --no-progress --set solvers.beam.params.formulation="$form" \
+      --set "solvers.beam.params.mesh.box.divisions=[$nx, $ny, $nz]" --set solvers.beam.params.integrator.linear=true)"
+    f=$(tip_fem "$out/beam.h5")
+    python3 -c "import sys; f, c, fw, cw, fc, cc = map(float, sys.argv[1:7]); print(f'{sys.argv[7]:<10s} {int(sys.argv[8]):7d} {sys.argv[9]:<20s} {f:<14.6e} {c:<14.6e} {abs(f - c) / abs(c):<9.1e} {fw:8.2f} {cw:8.2f} {fc:8.2f} {cc:8.2f} {fw / cw:7.2f}')" \
+      "$f" "$c" "$fem_wall" "$ccx_wall" "$fem_cpu" "$ccx_cpu" "${nx}x${ny}x${nz}" "$dofs" "$form"
+  done
 done
-echo "Timoshenko (shear factor 5/6): $timo m; mesh $nx x $ny x $nz; runs in $work"
-echo "(fem_solver's time includes the coupler, process start-up and HDF5 output)"
+echo "Timoshenko (shear factor 5/6): $timo m; runs in $work"

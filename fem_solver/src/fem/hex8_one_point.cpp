@@ -17,6 +17,13 @@
 //    dissipates c |q|^2 >= 0 and adds no stiffness. Since Gamma^T is zero on
 //    every linear velocity field, rigid motion and uniform strain rate are
 //    not damped.
+// Evaluation never forms Gamma: with c = X^T h (3 x 4, per element) and the
+// displacement gradient H = U^T Bbar, the hourglass modes are
+//   q = Gamma^T U = h^T U - c^T H^T,
+// and the element force w F S Bbar + k Gamma q folds into one product with
+// Bbar,  f = Bbar T^T + k h q,  T = w F S - k (c q)^T,
+// so an element reads 38 numbers instead of 58 and the two 8 x 4 x 3
+// products with Gamma become products with the constant +-1 matrix h.
 #include <cmath>
 
 #include "cosim/fem/fem/element_formulation.hpp"
@@ -27,6 +34,31 @@ namespace cosim::fem {
 namespace {
 
 using Mat84 = Eigen::Matrix<double, 8, 4>;
+using Mat34 = Eigen::Matrix<double, 3, 4>;
+using Mat43 = Eigen::Matrix<double, 4, 3>;
+
+/// Hourglass base vectors h_alpha (Flanagan & Belytschko 1981 Eq. 37):
+/// eta zeta, xi zeta, xi eta, xi eta zeta at the nodes.
+Mat84 hourglassBase() {
+  Mat84 h;
+  for (int a = 0; a < 8; ++a) {
+    const double* s = hex8::kNodeXi[a];
+    h(a, 0) = s[1] * s[2];
+    h(a, 1) = s[0] * s[2];
+    h(a, 2) = s[0] * s[1];
+    h(a, 3) = s[0] * s[1] * s[2];
+  }
+  return h;
+}
+const Mat84 kHourglassBase = hourglassBase();
+
+/// What an element needs at run time, contiguous per element.
+struct OnePointElement {
+  Mat83 bbar;       // mean gradient Bbar
+  Mat34 base;       // c = X^T h
+  double volume;    // V
+  double hourglass; // k (stiffness type) or c (viscous type)
+};
 
 class Hex8OnePoint final : public ElementFormulation {
  public:
@@ -38,79 +70,102 @@ class Hex8OnePoint final : public ElementFormulation {
       throw InputError("hourglass coefficient must be finite and >= 0");
     hex8::ReferenceGeometry geometry;
     geometry.build(mesh);
-    const std::size_t ne = mesh.numElements();
-    bbar_.resize(ne);
-    volume_.resize(ne);
-    gamma_.resize(ne);
-    stiffness_.resize(ne);
-    Mat84 h;
-    for (int a = 0; a < 8; ++a) {
-      const double* s = hex8::kNodeXi[a];
-      h(a, 0) = s[1] * s[2];
-      h(a, 1) = s[0] * s[2];
-      h(a, 2) = s[0] * s[1];
-      h(a, 3) = s[0] * s[1] * s[2];
-    }
-    for (std::size_t e = 0; e < ne; ++e) {
-      Mat83 B = Mat83::Zero();
-      for (int q = 0; q < 8; ++q) B += geometry.weight(e, q) * geometry.grad(e, q);
-      const double V = geometry.volume[e];
-      B /= V;
-      const Mat83 X = mesh.elementCoordinates(e);
-      // gamma = h - B (X^T h): removes the linear part of each base vector.
-      const Mat84 gamma = h - B * (X.transpose() * h);
-      bbar_[e] = B;
-      volume_[e] = V;
-      gamma_[e] = gamma;
+    elements_.resize(mesh.numElements());
+    for (std::size_t e = 0; e < elements_.size(); ++e) {
+      OnePointElement& el = elements_[e];
+      el.bbar.setZero();
+      for (int q = 0; q < 8; ++q) el.bbar += geometry.weight(e, q) * geometry.grad(e, q);
+      el.volume = geometry.volume[e];
+      el.bbar /= el.volume;
+      el.base = mesh.elementCoordinates(e).transpose() * kHourglassBase;
       if (viscous_) {
         const double waveSpeed = std::sqrt(material.waveModulus() / material.density());
-        stiffness_[e] = options.hourglassCoefficient * material.density() * waveSpeed * std::cbrt(V * V) / 4.0;
+        el.hourglass = options.hourglassCoefficient * material.density() * waveSpeed * std::cbrt(el.volume * el.volume) / 4.0;
       } else {
-        stiffness_[e] = options.hourglassCoefficient * material.waveModulus() * V * B.squaredNorm() / 8.0;
+        el.hourglass = options.hourglassCoefficient * material.waveModulus() * el.volume * el.bbar.squaredNorm() / 8.0;
       }
     }
   }
 
   void evaluate(std::size_t e, const Mat83& ue, Vec24& fe, Mat24* Ke, ElementEnergy& energy) const override {
-    fe.setZero();
-    if (Ke) Ke->setZero();
+    const OnePointElement& el = elements_[e];
     const double scale = pointScale(e, 0);
-    addMaterialPoint<8>(bbar_[e], ue, volume_[e] * scale, *material_, fe, Ke, energy.strain, e);
-    if (viscous_) return;  // the hourglass force depends on velocity: viscousForce()
-    const Mat84& g = gamma_[e];
-    const double k = stiffness_[e] * scale;
-    const Eigen::Matrix<double, 4, 3> q = g.transpose() * ue;  // hourglass displacement modes
-    const Mat83 fh = k * (g * q);
-    for (int a = 0; a < 8; ++a)
-      for (int i = 0; i < 3; ++i) fe(3 * a + i) += fh(a, i);
-    energy.hourglass += 0.5 * k * q.squaredNorm();
-    if (!Ke) return;
-    const Eigen::Matrix<double, 8, 8> gg = k * g * g.transpose();
-    for (int a = 0; a < 8; ++a)
-      for (int b = 0; b < 8; ++b)
-        for (int i = 0; i < 3; ++i) (*Ke)(3 * a + i, 3 * b + i) += gg(a, b);
+    if (Ke) {
+      evaluateWithTangent(e, ue, scale, fe, *Ke, energy);
+      return;
+    }
+    const double w = el.volume * scale;
+    const Mat3 H = ue.transpose() * el.bbar;
+    Mat3 S;
+    double W = 0.0;
+    material_->evaluateAt(e, H, S, nullptr, W);
+    energy.strain += w * W;
+    Mat3 T = w * (Mat3::Identity() + H) * S;  // w F S
+    Mat83 f;
+    if (viscous_) {  // the hourglass force depends on velocity: viscousForce()
+      f.noalias() = el.bbar * T.transpose();
+    } else {
+      const double k = el.hourglass * scale;
+      const Mat43 q = hourglassModes(el, ue, H);
+      T.noalias() -= k * (el.base * q).transpose();
+      f.noalias() = el.bbar * T.transpose();
+      f.noalias() += k * (kHourglassBase * q);
+      energy.hourglass += 0.5 * k * q.squaredNorm();
+    }
+    toNodeMajor(f, fe);
   }
 
   int pointsPerElement() const override { return 1; }
   bool hasViscousForce() const override { return viscous_; }
   void viscousForce(std::size_t e, const Mat83& ve, Vec24& fe) const override {
-    fe.setZero();
-    if (!viscous_) return;
-    const Mat84& g = gamma_[e];
-    const Eigen::Matrix<double, 4, 3> q = g.transpose() * ve;  // hourglass velocity modes
-    const Mat83 fh = stiffness_[e] * pointScale(e, 0) * (g * q);
-    for (int a = 0; a < 8; ++a)
-      for (int i = 0; i < 3; ++i) fe(3 * a + i) = fh(a, i);
+    if (!viscous_) {
+      fe.setZero();
+      return;
+    }
+    const OnePointElement& el = elements_[e];
+    const double c = el.hourglass * pointScale(e, 0);
+    const Mat43 q = hourglassModes(el, ve, ve.transpose() * el.bbar);  // hourglass velocity modes
+    Mat83 f = c * (kHourglassBase * q);
+    f.noalias() -= el.bbar * (c * (el.base * q));
+    toNodeMajor(f, fe);
   }
   void pointStates(std::size_t e, const Mat83& ue, MaterialPointState* out) const override {
-    pointStress<8>(bbar_[e], ue, *material_, out[0].F, out[0].S, e);
+    pointStress<8>(elements_[e].bbar, ue, *material_, out[0].F, out[0].S, e);
   }
 
  private:
-  std::vector<Mat83> bbar_;
-  std::vector<double> volume_;
-  std::vector<Mat84> gamma_;
-  std::vector<double> stiffness_;  // k (stiffness type) or c (viscous type) per element
+  /// q = Gamma^T U = h^T U - c^T H^T with H = U^T Bbar.
+  static Mat43 hourglassModes(const OnePointElement& el, const Mat83& U, const Mat3& H) {
+    Mat43 q = kHourglassBase.transpose() * U;
+    q.noalias() -= el.base.transpose() * H.transpose();
+    return q;
+  }
+  static void toNodeMajor(const Mat83& f, Vec24& fe) {
+    for (int a = 0; a < 8; ++a)
+      for (int i = 0; i < 3; ++i) fe(3 * a + i) = f(a, i);
+  }
+  /// Material part through the shared kernel, hourglass stiffness k Gamma Gamma^T.
+  void evaluateWithTangent(std::size_t e, const Mat83& ue, double scale, Vec24& fe, Mat24& Ke,
+                           ElementEnergy& energy) const {
+    const OnePointElement& el = elements_[e];
+    fe.setZero();
+    Ke.setZero();
+    addMaterialPoint<8>(el.bbar, ue, el.volume * scale, *material_, fe, &Ke, energy.strain, e);
+    if (viscous_) return;
+    const double k = el.hourglass * scale;
+    const Mat84 gamma = kHourglassBase - el.bbar * el.base;
+    const Mat43 q = gamma.transpose() * ue;
+    const Mat83 fh = k * (gamma * q);
+    for (int a = 0; a < 8; ++a)
+      for (int i = 0; i < 3; ++i) fe(3 * a + i) += fh(a, i);
+    energy.hourglass += 0.5 * k * q.squaredNorm();
+    const Eigen::Matrix<double, 8, 8> gg = k * gamma * gamma.transpose();
+    for (int a = 0; a < 8; ++a)
+      for (int b = 0; b < 8; ++b)
+        for (int i = 0; i < 3; ++i) Ke(3 * a + i, 3 * b + i) += gg(a, b);
+  }
+
+  std::vector<OnePointElement> elements_;
   bool viscous_ = false;
   const Material* material_ = nullptr;
 };

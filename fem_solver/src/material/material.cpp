@@ -16,8 +16,6 @@ Material::Material(const MaterialParams& params) : params_(params) {
   mu_ = E / (2.0 * (1.0 + nu));
 }
 
-Mat3 greenStrain(const Mat3& H) { return 0.5 * (H + H.transpose() + H.transpose() * H); }
-
 Mat6 isotropicTangent(double lambda, double mu) {
   // C_ijkl = lambda d_ij d_kl + mu (d_ik d_jl + d_il d_jk), Cheng 2022 Eq. 33,
   // in Voigt form with engineering shear strains.

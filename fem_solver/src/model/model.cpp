@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "cosim/fem/fem/hex8.hpp"
+#include "cosim/fem/linalg/dof_loop.hpp"
 #include "cosim/fem/linalg/sparse_system.hpp"
 
 namespace cosim::fem {
@@ -15,6 +16,10 @@ namespace cosim::fem {
 // Below this many elements a parallel region costs more than it saves
 // (and on an oversubscribed machine a barrier can cost milliseconds).
 constexpr long kParallelElements = 2000;
+// Elements per block of the coloured element loops: large enough that the
+// elements of a block reuse each other's nodes in cache, small enough that a
+// colour holds many blocks to share between threads.
+constexpr std::size_t kBlockElements = 128;
 
 namespace {
 /// Exceptions must not leave an OpenMP region: keep the first, rethrow after.
@@ -38,6 +43,14 @@ class ExceptionCollector {
  private:
   std::exception_ptr first_;
 };
+
+/// Sums block energies in block order (thread-count independent).
+void addEnergies(const std::vector<ElementEnergy>& parts, ElementEnergy& total) {
+  for (const ElementEnergy& en : parts) {
+    total.strain += en.strain;
+    total.hourglass += en.hourglass;
+  }
+}
 }  // namespace
 
 double Prescribed::displacement(double t) const {
@@ -67,9 +80,7 @@ Model::Model(Mesh mesh, std::unique_ptr<Material> material, std::unique_ptr<Elem
   for (std::size_t d = 0; d < numDofs(); ++d) dofMap_[d] = static_cast<int>(d);
   numFree_ = static_cast<int>(numDofs());
   computeMass();
-  buildNodeIncidence();
-  elementForces_.resize(24 * mesh_.numElements());
-  elementEnergy_.resize(2 * mesh_.numElements());
+  colourElementBlocks();
 }
 
 double Model::massWeight(std::size_t e, int q) const {
@@ -129,16 +140,62 @@ void Model::setArlequinWeight(const WeightProfile& profile) {
   }
 }
 
-void Model::buildNodeIncidence() {
-  incidenceStart_.assign(numNodes() + 1, 0);
+void Model::colourElementBlocks() {
+  const std::size_t ne = mesh_.numElements();
+  const std::size_t nb = (ne + kBlockElements - 1) / kBlockElements;
+  // Blocks touching each node (CSR, repeats allowed).
+  std::vector<std::size_t> start(numNodes() + 1, 0), blocks(8 * ne);
   for (const Hex& h : mesh_.elements)
-    for (Index n : h) ++incidenceStart_[n + 1];
-  for (std::size_t n = 0; n < numNodes(); ++n) incidenceStart_[n + 1] += incidenceStart_[n];
-  incidence_.resize(incidenceStart_.back());
-  std::vector<Index> cursor(incidenceStart_.begin(), incidenceStart_.end() - 1);
-  for (std::size_t e = 0; e < mesh_.numElements(); ++e)
-    for (int a = 0; a < 8; ++a)
-      incidence_[cursor[mesh_.elements[e][static_cast<std::size_t>(a)]]++] = static_cast<Index>(8 * e + static_cast<std::size_t>(a));
+    for (Index n : h) ++start[n + 1];
+  for (std::size_t n = 0; n < numNodes(); ++n) start[n + 1] += start[n];
+  std::vector<std::size_t> cursor(start.begin(), start.end() - 1);
+  for (std::size_t e = 0; e < ne; ++e)
+    for (Index n : mesh_.elements[e]) blocks[cursor[n]++] = e / kBlockElements;
+  // Greedy: each block takes the lowest colour none of its neighbours holds.
+  std::vector<std::size_t> colour(nb), takenBy;  // takenBy[c] = b + 1: a neighbour of b holds c
+  std::size_t colours = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    for (std::size_t e = b * kBlockElements; e < std::min(ne, (b + 1) * kBlockElements); ++e)
+      for (Index n : mesh_.elements[e])
+        for (std::size_t k = start[n]; k < start[n + 1]; ++k)
+          if (blocks[k] < b) takenBy[colour[blocks[k]]] = b + 1;
+    std::size_t c = 0;
+    while (c < colours && takenBy[c] == b + 1) ++c;
+    if (c == colours) {
+      ++colours;
+      takenBy.push_back(0);
+    }
+    colour[b] = c;
+  }
+  colourStart_.assign(colours + 1, 0);
+  for (std::size_t b = 0; b < nb; ++b) ++colourStart_[colour[b] + 1];
+  for (std::size_t c = 0; c < colours; ++c) colourStart_[c + 1] += colourStart_[c];
+  colourBlocks_.resize(nb);
+  std::vector<std::size_t> next(colourStart_.begin(), colourStart_.end() - 1);
+  for (std::size_t b = 0; b < nb; ++b) colourBlocks_[next[colour[b]]++] = b;
+  blockEnergy_.assign(nb, ElementEnergy{});
+}
+
+template <class Kernel>
+void Model::forEachElementBlock(bool parallel, Kernel&& kernel) const {
+  const std::size_t ne = mesh_.numElements();
+  ExceptionCollector errors;
+#pragma omp parallel if (parallel && static_cast<long>(ne) > kParallelElements)
+  for (std::size_t c = 0; c + 1 < colourStart_.size(); ++c) {
+    const long begin = static_cast<long>(colourStart_[c]), end = static_cast<long>(colourStart_[c + 1]);
+#pragma omp for schedule(dynamic)
+    for (long k = begin; k < end; ++k) {
+      const std::size_t b = colourBlocks_[static_cast<std::size_t>(k)];
+      errors.run([&] { kernel(b, b * kBlockElements, std::min(ne, (b + 1) * kBlockElements)); });
+    }
+  }
+  errors.rethrow();
+}
+
+void Model::scatter(std::size_t e, const Vec24& fe, std::vector<double>& f) const {
+  const Hex& h = mesh_.elements[e];
+  for (int a = 0; a < 8; ++a)
+    for (int i = 0; i < 3; ++i) f[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += fe(3 * a + i);
 }
 
 void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp) {
@@ -154,7 +211,7 @@ void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double a
     fixed_[dof] = 1;
     prescribed_.push_back(p);
   }
-  rebuildDofMap();
+  dofMapStale_ = true;
 }
 
 namespace {
@@ -187,7 +244,7 @@ void Model::tie(const std::vector<std::pair<Index, Index>>& pairs, const Vec3& j
   rebuildDofMap();
 }
 
-void Model::rebuildDofMap() {
+void Model::rebuildDofMap() const {
   // Union-find with offsets: u[d] = u[parent[d]] + offset[d]. Each tie
   // u_s = u_m + j joins the two trees; the root of a tree is its independent
   // dof, a prescribed one where the tree holds one.
@@ -240,9 +297,11 @@ void Model::rebuildDofMap() {
     if (root[d] == d) dofMap_[d] = fixed_[d] ? -1 : next++;
   for (const SlaveDof& s : slaves_) dofMap_[s.dof] = dofMap_[s.master];
   numFree_ = next;
+  dofMapStale_ = false;
 }
 
 void Model::enforceSlaves(double t, std::vector<double>& u, std::vector<double>* v) const {
+  refreshDofMap();
   for (const SlaveDof& s : slaves_) {
     u[s.dof] = u[s.master] + s.jump.displacement(t);
     if (v) (*v)[s.dof] = (*v)[s.master] + s.jump.velocity(t);
@@ -258,12 +317,14 @@ void Model::applyConstraints(double t, std::vector<double>& u, std::vector<doubl
 }
 
 void Model::reduce(const std::vector<double>& full, Eigen::VectorXd& reduced) const {
+  refreshDofMap();
   reduced.setZero(numFree_);
   for (std::size_t d = 0; d < dofMap_.size(); ++d)
     if (dofMap_[d] >= 0) reduced(dofMap_[d]) += full[d];
 }
 
 std::vector<double> Model::constrainedLumpedMass() const {
+  refreshDofMap();
   std::vector<double> m(numDofs());
   for (std::size_t d = 0; d < m.size(); ++d) m[d] = lumpedMass_[d / 3];
   for (const SlaveDof& s : slaves_) {
@@ -274,12 +335,21 @@ std::vector<double> Model::constrainedLumpedMass() const {
 }
 
 double Model::constrainedAcceleration(const std::vector<double>& r, std::vector<double>& a) const {
+  refreshDofMap();
+  a.resize(r.size());
+  if (slaves_.empty()) {  // every explicit step: no copies of r and m
+    return sumOverDofs(r.size(), [&](std::size_t d) {
+      const double m = lumpedMass_[d / 3];
+      const bool free = dofMap_[d] >= 0 && m != 0.0;
+      a[d] = free ? r[d] / m : 0.0;
+      return free ? r[d] * r[d] : 0.0;
+    });
+  }
   std::vector<double>& rs = reducedForce_;
   rs = r;
   std::vector<double> m = constrainedLumpedMass();
   for (const SlaveDof& s : slaves_) rs[s.master] += rs[s.dof];
   double r2 = 0.0;
-  a.resize(r.size());
   for (std::size_t d = 0; d < r.size(); ++d) {
     if (dofMap_[d] < 0 || m[d] == 0.0) {
       a[d] = 0.0;
@@ -293,6 +363,7 @@ double Model::constrainedAcceleration(const std::vector<double>& r, std::vector<
 }
 
 void Model::addTieReactions(const std::vector<double>& res, std::vector<double>& fApplied) const {
+  refreshDofMap();
   for (const SlaveDof& s : slaves_) {
     if (dofMap_[s.dof] < 0) continue;  // prescribed master: the caller's reaction covers it
     fApplied[s.dof] += res[s.dof];
@@ -364,7 +435,7 @@ void Model::addBodyForce(const Vec3& acceleration) {
 void Model::externalForce(double t, std::vector<double>& f) const {
   const double factor = loadRamp_ > 0.0 ? std::min(t / loadRamp_, 1.0) : 1.0;
   f.resize(numDofs());
-  for (std::size_t d = 0; d < numDofs(); ++d) f[d] = factor * referenceLoad_[d] + couplingForce_[d];
+  forEachDof(numDofs(), [&](std::size_t d) { f[d] = factor * referenceLoad_[d] + couplingForce_[d]; });
 }
 
 Mat83 Model::gather(std::size_t e, const std::vector<double>& u) const {
@@ -376,94 +447,70 @@ Mat83 Model::gather(std::size_t e, const std::vector<double>& u) const {
 }
 
 void Model::internalForce(const std::vector<double>& u, std::vector<double>& f, ElementEnergy& energy) const {
-  const long ne = static_cast<long>(mesh_.numElements());
   const ElementFormulation& form = *formulation_;
-  ExceptionCollector errors;
-#pragma omp parallel for schedule(static) if (ne > kParallelElements)
-  for (long e = 0; e < ne; ++e) {
-    const std::size_t el = static_cast<std::size_t>(e);
+  f.assign(numDofs(), 0.0);
+  forEachElementBlock(true, [&](std::size_t b, std::size_t first, std::size_t last) {
+    ElementEnergy sum;
     Vec24 fe;
-    ElementEnergy en;
-    if (!errors.run([&] { form.evaluate(el, gather(el, u), fe, nullptr, en); })) continue;
-    std::copy(fe.data(), fe.data() + 24, elementForces_.data() + 24 * el);
-    elementEnergy_[2 * el] = en.strain;
-    elementEnergy_[2 * el + 1] = en.hourglass;
-  }
-  errors.rethrow();
-  gatherElementForces(f);
-  for (std::size_t e = 0; e < mesh_.numElements(); ++e) {
-    energy.strain += elementEnergy_[2 * e];
-    energy.hourglass += elementEnergy_[2 * e + 1];
-  }
+    for (std::size_t e = first; e < last; ++e) {
+      form.evaluate(e, gather(e, u), fe, nullptr, sum);
+      scatter(e, fe, f);
+    }
+    blockEnergy_[b] = sum;
+  });
+  addEnergies(blockEnergy_, energy);
 }
 
 bool Model::viscousForce(const std::vector<double>& v, std::vector<double>& f) const {
-  if (!formulation_->hasViscousForce()) {
-    f.assign(numDofs(), 0.0);
-    return false;
-  }
-  const long ne = static_cast<long>(mesh_.numElements());
-#pragma omp parallel for schedule(static) if (ne > kParallelElements)
-  for (long e = 0; e < ne; ++e) {
-    const std::size_t el = static_cast<std::size_t>(e);
-    Vec24 fe;
-    formulation_->viscousForce(el, gather(el, v), fe);
-    std::copy(fe.data(), fe.data() + 24, elementForces_.data() + 24 * el);
-  }
-  gatherElementForces(f);
-  return true;
-}
-
-void Model::gatherElementForces(std::vector<double>& f) const {
-  // Gather per node in a fixed order: results independent of the thread count.
   f.assign(numDofs(), 0.0);
-  const long nn = static_cast<long>(numNodes());
-#pragma omp parallel for schedule(static) if (nn > kParallelElements)
-  for (long n = 0; n < nn; ++n) {
-    double s[3] = {0.0, 0.0, 0.0};
-    for (Index k = incidenceStart_[static_cast<std::size_t>(n)]; k < incidenceStart_[static_cast<std::size_t>(n) + 1]; ++k) {
-      const double* fe = elementForces_.data() + 3 * static_cast<std::size_t>(incidence_[k]);
-      s[0] += fe[0];
-      s[1] += fe[1];
-      s[2] += fe[2];
+  if (!formulation_->hasViscousForce()) return false;
+  forEachElementBlock(true, [&](std::size_t, std::size_t first, std::size_t last) {
+    Vec24 fe;
+    for (std::size_t e = first; e < last; ++e) {
+      formulation_->viscousForce(e, gather(e, v), fe);
+      scatter(e, fe, f);
     }
-    for (int i = 0; i < 3; ++i) f[3 * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] = s[i];
-  }
+  });
+  return true;
 }
 
 void Model::assembleTangent(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
                             ElementEnergy& energy) const {
+  assemble(u, false, K, f, energy);
+}
+
+void Model::assembleLinearStiffness(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
+                                    ElementEnergy& energy) const {
+  assemble(u, true, K, f, energy);
+}
+
+void Model::assemble(const std::vector<double>& u, bool linear, SparseSystem& K, std::vector<double>& f,
+                     ElementEnergy& energy) const {
   K.setZero();
   f.assign(numDofs(), 0.0);
-  const std::size_t ne = mesh_.numElements();
-  const std::size_t kChunk = std::min<std::size_t>(512, ne);
-  if (tangentBuffer_.size() < kChunk) tangentBuffer_.resize(kChunk);
-  std::vector<Mat24>& Ke = tangentBuffer_;
-  std::vector<Vec24> fe(kChunk);
-  std::vector<ElementEnergy> en(kChunk);
-  for (std::size_t start = 0; start < ne; start += kChunk) {
-    const long count = static_cast<long>(std::min(kChunk, ne - start));
-    ExceptionCollector errors;
-#pragma omp parallel for schedule(static) if (count > 64)
-    for (long k = 0; k < count; ++k) {
-      const std::size_t e = start + static_cast<std::size_t>(k);
-      en[static_cast<std::size_t>(k)] = ElementEnergy{};
-      errors.run([&] {
-        formulation_->evaluate(e, gather(e, u), fe[static_cast<std::size_t>(k)], &Ke[static_cast<std::size_t>(k)],
-                               en[static_cast<std::size_t>(k)]);
-      });
+  // Blocks of one colour share no node, hence no matrix entry, unless a
+  // periodic tie maps dofs of different nodes onto one row: then serially,
+  // in the same order.
+  forEachElementBlock(slaves().empty(), [&](std::size_t b, std::size_t first, std::size_t last) {
+    ElementEnergy sum;
+    Vec24 fe;
+    Mat24 Ke;
+    for (std::size_t e = first; e < last; ++e) {
+      const Mat83 ue = gather(e, u);
+      if (linear) {  // K_0 at the reference configuration, f = K_0 u, W = u.f / 2
+        formulation_->evaluate(e, Mat83::Zero(), fe, &Ke, sum);
+        const Eigen::Matrix<double, 8, 3, Eigen::RowMajor> nodeMajor = ue;
+        fe.noalias() = Ke * Eigen::Map<const Vec24>(nodeMajor.data());
+        sum.strain += 0.5 * fe.dot(Eigen::Map<const Vec24>(nodeMajor.data()));
+      } else {
+        formulation_->evaluate(e, ue, fe, &Ke, sum);
+      }
+      K.add(e, Ke);
+      scatter(e, fe, f);
     }
-    errors.rethrow();
-    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
-      const std::size_t e = start + k;
-      K.add(e, Ke[k]);
-      const Hex& h = mesh_.elements[e];
-      for (int a = 0; a < 8; ++a)
-        for (int i = 0; i < 3; ++i) f[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += fe[k](3 * a + i);
-      energy.strain += en[k].strain;
-      energy.hourglass += en[k].hourglass;
-    }
-  }
+    blockEnergy_[b] = sum;
+  });
+  addEnergies(blockEnergy_, energy);
 }
 
 namespace {
@@ -573,6 +620,7 @@ double Model::criticalTimeStep(double dampingAlpha) const {
 }
 
 void Model::checkFinite(const std::vector<double>& x, const std::string& what) const {
+  if (sumOverDofs(x.size(), [&](std::size_t d) { return std::isfinite(x[d]) ? 0.0 : 1.0; }) == 0.0) return;
   for (std::size_t d = 0; d < x.size(); ++d)
     if (!std::isfinite(x[d])) {
       std::ostringstream msg;

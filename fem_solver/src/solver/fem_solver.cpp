@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -234,8 +235,9 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     newton.linearSolver = in.text("linear_solver", newton.linearSolver);
     newton.tangentReuse = static_cast<int>(in.integer("tangent_reuse", 0));
     if (newton.tangentReuse < 0) in.fail(in.get("tangent_reuse"), in.path() + ".tangent_reuse must be >= 0");
-    if (newton.linearSolver != "direct" && newton.linearSolver != "cg")
-      in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct or cg");
+    if (const auto& names = linearSolverNames();
+        std::find(names.begin(), names.end(), newton.linearSolver) == names.end())
+      in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct, cholmod, ldlt or cg");
     if (integratorType_ == "newmark") {
       NewmarkOptions o;
       o.beta = in.number("beta", o.beta);
@@ -253,6 +255,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       integrator_ = makeCentralDifference(*model_, o);
     } else if (integratorType_ == "static" || relaxation) {
       staticNewton_ = newton;
+      if (!relaxation) staticLinear_ = in.flag("linear", false);
       if (relaxation) model_->setMassScale(in.number("mass_scaling", 1.0));
     } else {
       in.fail(in.get("type"), in.path() + ".type must be newmark, central-difference, static or dynamic-relaxation");
@@ -456,6 +459,8 @@ void FemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
         state_.time += request.dt;
         if (integratorType_ == "dynamic-relaxation")
           relaxStatic(*model_, state_, relaxation_);
+        else if (staticLinear_)
+          solveLinearStatic(*model_, state_, staticNewton_.linearSolver);
         else
           solveStatic(*model_, state_, staticNewton_);
         ++state_.step;

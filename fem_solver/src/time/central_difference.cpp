@@ -11,6 +11,7 @@
 // the scheme. Periodic slave dofs move with their masters (forces and lumped
 // masses summed onto the master, Model::constrainedAcceleration) and get the
 // prescribed jump exactly at every step.
+#include "cosim/fem/linalg/dof_loop.hpp"
 #include "cosim/fem/time/integrator.hpp"
 
 namespace cosim::fem {
@@ -45,12 +46,12 @@ class CentralDifference final : public Integrator {
 
   void predict(State& state, double dt) override {
     const double t1 = state.time + dt;
-    const std::size_t n = state.u.size();
-    uOld_ = state.u;
-    for (std::size_t d = 0; d < n; ++d) {
+    uOld_.resize(state.u.size());
+    forEachDof(state.u.size(), [&](std::size_t d) {
+      uOld_[d] = state.u[d];
       state.v[d] += 0.5 * dt * state.a[d];
       state.u[d] += dt * state.v[d];
-    }
+    });
     for (const Prescribed& p : model_.prescribed()) {
       state.u[p.dof] = p.displacement(t1);
       state.v[p.dof] = (state.u[p.dof] - uOld_[p.dof]) / dt;
@@ -64,26 +65,31 @@ class CentralDifference final : public Integrator {
 
   void correct(State& state, double dt) override {
     const double t1 = state.time;
-    const std::size_t n = state.u.size();
     ElementEnergy en;
     model_.internalForce(state.u, fint_, en);
     model_.externalForce(t1, fext_);
     model_.addFollowerLoads(t1, state.u, fext_);
-    model_.viscousForce(state.v, fvisc_);  // at v_{n+1/2}
+    if (model_.formulation().hasViscousForce() || fvisc_.size() != state.v.size())
+      model_.viscousForce(state.v, fvisc_);  // at v_{n+1/2}; stays zero without viscous forces
     acceleration(state, fint_, fext_, fvisc_, state.v);
-    // Constraint forces (prescribed dofs and periodic ties) join the external
-    // work: res = M a + f_int + f_visc + alpha M v - f_ext per dof.
+    // Constraint forces of periodic ties join the external work:
+    // res = M a + f_int + f_visc + alpha M v - f_ext per dof.
     const auto& m = model_.lumpedMass();
-    res_.resize(n);
-    for (std::size_t d = 0; d < n; ++d)
-      res_[d] = m[d / 3] * (state.a[d] + options_.damping * state.v[d]) + fint_[d] + fvisc_[d] - fext_[d];
-    for (std::size_t d = 0; d < n; ++d) state.v[d] += 0.5 * dt * state.a[d];
+    if (!model_.slaves().empty()) {
+      res_.resize(state.u.size());
+      forEachDof(res_.size(), [&](std::size_t d) {
+        res_[d] = m[d / 3] * (state.a[d] + options_.damping * state.v[d]) + fint_[d] + fvisc_[d] - fext_[d];
+      });
+    }
+    // Prescribed dofs: their reactions f_int + f_visc are the applied forces.
+    const auto& map = model_.dofMap();
+    forEachDof(state.u.size(), [&](std::size_t d) {
+      state.v[d] += 0.5 * dt * state.a[d];
+      if (map[d] < 0) fext_[d] = fint_[d] + fvisc_[d];
+    });
     for (const Prescribed& p : model_.prescribed()) state.v[p.dof] = p.velocity(t1);
     for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = state.v[s.master] + s.jump.velocity(t1);
     model_.checkFinite(state.v, "velocity");
-    const auto& map = model_.dofMap();
-    for (std::size_t d = 0; d < n; ++d)
-      if (map[d] < 0) fext_[d] = fint_[d] + fvisc_[d];
     model_.addTieReactions(res_, fext_);
     accumulateHourglassDissipation(state);
     accumulateWork(state, uOld_, fext_);
@@ -94,19 +100,17 @@ class CentralDifference final : public Integrator {
                     const std::vector<double>& fvisc, const std::vector<double>& vHalf) {
     const auto& m = model_.lumpedMass();
     const double alpha = options_.damping;
-    const std::size_t n = state.u.size();
-    net_.resize(n);
-    for (std::size_t d = 0; d < n; ++d) net_[d] = fext[d] - fint[d] - fvisc[d] - alpha * m[d / 3] * vHalf[d];
+    net_.resize(state.u.size());
+    forEachDof(net_.size(), [&](std::size_t d) { net_[d] = fext[d] - fint[d] - fvisc[d] - alpha * m[d / 3] * vHalf[d]; });
     model_.constrainedAcceleration(net_, state.a);
   }
   /// Trapezoidal work of the viscous hourglass forces over the step (the
   /// forces resist the motion, so this is the energy they removed).
   void accumulateHourglassDissipation(State& state) const {
     if (!model_.formulation().hasViscousForce()) return;
-    double w = 0.0;
-    for (std::size_t d = 0; d < fvisc_.size(); ++d)
-      w += 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - uOld_[d]);
-    state.hourglassDissipated += w;
+    state.hourglassDissipated += sumOverDofs(fvisc_.size(), [&](std::size_t d) {
+      return 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - uOld_[d]);
+    });
     state.fViscous = fvisc_;
   }
   CentralDifferenceOptions options_;

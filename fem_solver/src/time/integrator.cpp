@@ -1,5 +1,7 @@
 #include "cosim/fem/time/integrator.hpp"
 
+#include "cosim/fem/linalg/dof_loop.hpp"
+
 namespace cosim::fem {
 
 void Integrator::applyPrescribed(State& state, double t) const {
@@ -7,10 +9,12 @@ void Integrator::applyPrescribed(State& state, double t) const {
 }
 
 void Integrator::accumulateWork(State& state, const std::vector<double>& uOld, const std::vector<double>& fNew) const {
-  double w = 0.0;
-  for (std::size_t d = 0; d < fNew.size(); ++d) w += 0.5 * (state.fApplied[d] + fNew[d]) * (state.u[d] - uOld[d]);
-  state.externalWork += w;
-  state.fApplied = fNew;
+  state.fApplied.resize(fNew.size(), 0.0);
+  state.externalWork += sumOverDofs(fNew.size(), [&](std::size_t d) {
+    const double w = 0.5 * (state.fApplied[d] + fNew[d]) * (state.u[d] - uOld[d]);
+    state.fApplied[d] = fNew[d];
+    return w;
+  });
 }
 
 void requireNoViscousForces(const Model& model, const std::string& solver) {

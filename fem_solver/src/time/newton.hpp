@@ -17,6 +17,19 @@ inline std::string history(const NewtonReport& report) {
   return s.str();
 }
 
+/// Factorises A; throws SolveError naming the node of a zero pivot.
+inline void factorise(const Model& model, LinearSolver& solver, SparseSystem& A, const std::string& where) {
+  solver.factorize(A.matrix());
+  const int bad = solver.singularDof();
+  if (bad < 0) return;
+  const auto& map = model.dofMap();
+  std::size_t dof = 0;
+  for (std::size_t d = 0; d < map.size(); ++d)
+    if (map[d] == bad) dof = d;
+  throw SolveError(where + ": singular system (zero pivot at node " + std::to_string(dof / 3) + " direction " +
+                   "xyz"[dof % 3] + "); the model is not sufficiently constrained");
+}
+
 /// Runs Newton: linearise, solve A du = -R, update(du); reports divergence
 /// with the residual history, never loops forever.
 /// Converged when the relative residual is below options.tolerance, or when
@@ -51,17 +64,8 @@ inline NewtonReport newtonLoop(const Model& model, const NewtonOptions& options,
       correction = du.norm() / (update(du) + 1e-300);
       continue;
     }
-    solver.factorize(A.matrix());
+    factorise(model, solver, A, where);
     if (factorised) *factorised = true;
-    const int bad = solver.singularDof();
-    if (bad >= 0) {
-      const auto& map = model.dofMap();
-      std::size_t dof = 0;
-      for (std::size_t d = 0; d < map.size(); ++d)
-        if (map[d] == bad) dof = d;
-      throw SolveError(where + ": singular system (zero pivot at node " + std::to_string(dof / 3) + " direction " +
-                       "xyz"[dof % 3] + "); the model is not sufficiently constrained");
-    }
     const Eigen::VectorXd du = solver.solve(-R);
     const double unorm = update(du);
     correction = du.norm() / (unorm + 1e-300);

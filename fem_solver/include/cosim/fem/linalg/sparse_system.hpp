@@ -27,8 +27,10 @@ class SparseSystem {
   std::vector<int> slots_;  // 576 per element, -1 where a dof is prescribed
 };
 
-/// Linear solvers for the Newton systems: "direct" (SimplicialLDLT, symbolic
-/// analysis once) and "cg" (conjugate gradients, incomplete Cholesky).
+/// Linear solvers for the Newton systems, symbolic analysis once: "direct"
+/// (CHOLMOD's supernodal Cholesky where the build has it, else "ldlt"),
+/// "cholmod", "ldlt" (Eigen's SimplicialLDLT) and "cg" (conjugate gradients,
+/// incomplete Cholesky).
 class LinearSolver {
  public:
   virtual ~LinearSolver() = default;
@@ -38,6 +40,9 @@ class LinearSolver {
   /// Index of a free dof with (near) zero pivot, or -1.
   virtual int singularDof() const { return -1; }
 };
+/// Throws InputError for an unknown name, or "cholmod" in a build without CHOLMOD.
 std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name, double tolerance = 1e-10);
+/// The names makeLinearSolver knows.
+const std::vector<std::string>& linearSolverNames();
 
 }  // namespace cosim::fem

@@ -53,8 +53,9 @@ class Material {
 
 using MaterialRegistry = Registry<Material, const MaterialParams&>;
 
-/// Green-Lagrange strain E = (F^T F - I) / 2 = (H + H^T + H^T H) / 2 (Cheng 2022, Sec. 3.1).
-Mat3 greenStrain(const Mat3& H);
+/// Green-Lagrange strain E = (F^T F - I) / 2 = (H + H^T + H^T H) / 2 (Cheng 2022, Sec. 3.1);
+/// inline: every material evaluation of an explicit step calls it.
+inline Mat3 greenStrain(const Mat3& H) { return 0.5 * (H + H.transpose() + H.transpose() * H); }
 /// Isotropic elasticity tensor in Voigt form (Cheng 2022 Eq. 33).
 Mat6 isotropicTangent(double lambda, double mu);
 Vec6 toVoigtStrain(const Mat3& E);   // engineering shear

@@ -1,8 +1,9 @@
 #pragma once
 // The discrete model: mesh, material, element formulation, masses, boundary
 // conditions and loads. It evaluates global internal forces (OpenMP over
-// elements, then a deterministic gather per node so results do not depend on
-// the thread count) and assembles tangents into a fixed sparse pattern.
+// coloured element blocks that scatter without atomics, in an order that does
+// not depend on the thread count) and assembles tangents into a fixed sparse
+// pattern the same way.
 #include <memory>
 #include <string>
 #include <vector>
@@ -67,8 +68,14 @@ class Model {
   /// A periodic slave dof carries its master's index (master-slave
   /// elimination: assembly through this map sums slave rows and columns onto
   /// the master, i.e. forms T^T K T for u = T u_independent + jump).
-  const std::vector<int>& dofMap() const { return dofMap_; }
-  int numFree() const { return numFree_; }
+  const std::vector<int>& dofMap() const {
+    refreshDofMap();
+    return dofMap_;
+  }
+  int numFree() const {
+    refreshDofMap();
+    return numFree_;
+  }
 
   // --- periodic constraints --------------------------------------------------
   /// Ties every dof of each node `slave` to node `master`: u_slave = u_master + jump(t)
@@ -81,7 +88,10 @@ class Model {
   /// pairs: (slave, master) node ids, e.g. from matchPeriodicNodes.
   void tie(const std::vector<std::pair<Index, Index>>& pairs, const Vec3& jump,
            Prescribed::Kind kind = Prescribed::Kind::displacement, double ramp = 0.0);
-  const std::vector<SlaveDof>& slaves() const { return slaves_; }
+  const std::vector<SlaveDof>& slaves() const {
+    refreshDofMap();
+    return slaves_;
+  }
   /// Sets prescribed dofs, then slave dofs from their masters, at time t
   /// (velocities too when v is given).
   void applyConstraints(double t, std::vector<double>& u, std::vector<double>* v) const;
@@ -131,6 +141,11 @@ class Model {
   /// Tangent (free-free block) and internal force; the system must have been built for this model.
   void assembleTangent(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
                        ElementEnergy& energy) const;
+  /// Small-strain linear elasticity about the reference configuration: K_0
+  /// (the tangent at u = 0, free-free block) and f = K_0 u on all dofs
+  /// (prescribed ones get their reactions), strain energy u . f / 2.
+  void assembleLinearStiffness(const std::vector<double>& u, SparseSystem& K, std::vector<double>& f,
+                               ElementEnergy& energy) const;
   /// Consistent mass into a system with the same pattern.
   void assembleMass(SparseSystem& M) const;
   /// y = M x with the consistent mass (lumped when lumped = true), all dofs.
@@ -159,10 +174,30 @@ class Model {
   void checkFinite(const std::vector<double>& x, const std::string& what) const;
 
  private:
-  void buildNodeIncidence();
-  void rebuildDofMap();
-  /// Sums elementForces_ per node (fixed order, thread-count independent).
-  void gatherElementForces(std::vector<double>& f) const;
+  /// Splits the elements into contiguous blocks and colours them so that
+  /// blocks of one colour share no node (greedy colouring of the block
+  /// adjacency graph).
+  void colourElementBlocks();
+  /// Runs kernel(block, first, last) over every element block, colour after
+  /// colour; the blocks of a colour run in parallel when `parallel` holds.
+  /// Blocks of one colour touch disjoint nodes, so kernels scatter straight
+  /// into global vectors without atomics, and every node receives its element
+  /// contributions in one fixed order (colour, then element) whatever the
+  /// thread count: results are bit-for-bit reproducible.
+  template <class Kernel>
+  void forEachElementBlock(bool parallel, Kernel&& kernel) const;
+  /// Tangent (linear = false) or K_0 (linear = true) and the matching internal force.
+  void assemble(const std::vector<double>& u, bool linear, SparseSystem& K, std::vector<double>& f,
+                ElementEnergy& energy) const;
+  /// Adds the element vector fe (24, node-major xyz) of element e into f (3 per node).
+  void scatter(std::size_t e, const Vec24& fe, std::vector<double>& f) const;
+  /// Renumbers the free dofs and resolves the ties: O(dofs), so prescribe()
+  /// only marks the numbering stale (clamping a face node by node would
+  /// otherwise cost O(dofs^2)) and the accessors renumber on first use.
+  void rebuildDofMap() const;
+  void refreshDofMap() const {
+    if (dofMapStale_) rebuildDofMap();
+  }
   struct Tie {
     Index slave, master;
     Vec3 jump;
@@ -170,7 +205,7 @@ class Model {
     double ramp;
   };
   std::vector<Tie> ties_;
-  std::vector<SlaveDof> slaves_;
+  mutable std::vector<SlaveDof> slaves_;
   void computeMass();
   /// 1 - w at the 2x2x2 Gauss points of element e (1 without a profile).
   double massWeight(std::size_t e, int q) const;
@@ -180,8 +215,9 @@ class Model {
   std::unique_ptr<ElementFormulation> formulation_;
   std::vector<char> fixed_;
   std::vector<Prescribed> prescribed_;
-  std::vector<int> dofMap_;
-  int numFree_ = 0;
+  mutable std::vector<int> dofMap_;
+  mutable int numFree_ = 0;
+  mutable bool dofMapStale_ = false;
   std::vector<double> referenceLoad_, couplingForce_;
   double loadRamp_ = 0.0;
   std::vector<std::pair<std::vector<Quad>, double>> pressures_;
@@ -189,11 +225,10 @@ class Model {
   double massScale_ = 1.0;
   std::vector<double> gaussWeight_;  // 1 - w at the 8 Gauss points of each element, empty = 1
   std::vector<double> bodyAcceleration_;
-  std::vector<Index> incidenceStart_, incidence_;  // node -> 8 e + a
-  mutable std::vector<double> elementForces_;      // 24 per element
-  mutable std::vector<double> elementEnergy_;      // 2 per element
-  mutable std::vector<double> reducedForce_;       // constrainedAcceleration buffer
-  mutable std::vector<Mat24> tangentBuffer_;       // element tangents of one assembly chunk
+  std::vector<std::size_t> colourStart_;            // blocks of colour c: colourBlocks_[colourStart_[c] ...]
+  std::vector<std::size_t> colourBlocks_;           // block ids grouped by colour, ascending within a colour
+  mutable std::vector<ElementEnergy> blockEnergy_;  // energy of each element block (summed in block order)
+  mutable std::vector<double> reducedForce_;        // constrainedAcceleration buffer
   // Consistent element mass matrices (8 x 8 per element, scaled): constant in a
   // total Lagrangian model, so built once and rebuilt when the mass scale or the
   // Arlequin weights change. massTimes runs every Newmark iteration.

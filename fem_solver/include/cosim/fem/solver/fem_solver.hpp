@@ -57,6 +57,7 @@ class FemSolver final : public wire::Solver {
   std::string integratorType_;
   bool force_ = false;
   NewtonOptions staticNewton_;
+  bool staticLinear_ = false;  // static: small-strain linear (K_0 u = f_ext)
   RelaxationOptions relaxation_;
   int outputEvery_ = 0;
   std::unique_ptr<SnapshotWriter> snapshots_;

@@ -112,4 +112,11 @@ NewtonReport relaxStatic(Model& model, State& state, const RelaxationOptions& op
 /// factor when steps > 1). Throws SolveError with the residual history.
 NewtonReport solveStatic(Model& model, State& state, const NewtonOptions& options, int loadSteps = 1);
 
+/// Small-strain linear statics at state.time: K_0 u = f_ext with K_0 the
+/// tangent at the reference configuration, prescribed values applied (one
+/// factorisation, one solve; for loads whose strains and rotations are small,
+/// where the finite-strain Newton solve assembles and factorises at least
+/// twice). Residuals: relative before and after the solve.
+NewtonReport solveLinearStatic(Model& model, State& state, const std::string& linearSolver = "direct");
+
 }  // namespace cosim::fem
