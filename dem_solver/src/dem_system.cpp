@@ -47,8 +47,10 @@ void DemSystem::initialize() {
   planeShear.resize(planes.size());
   for (auto& s : planeShear) s.resize(n);
   planeTouch.resize(planes.size());
+  planeContactForce.resize(planes.size());
   for (std::size_t w = 0; w < planes.size(); ++w) {
     planeTouch[w].resize(n);
+    planeContactForce[w].resize(n);
     for (std::size_t i = 0; i < n; ++i) planeTouch[w][i] = norm2(planeShear[w][i]) > 0.0;
   }
   for (auto& m : meshes) {
@@ -283,6 +285,7 @@ void DemSystem::gatherForces(double dt) {
         Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
                             dt, shear, lost);
         fw *= w;
+        planeContactForce[wl][i] = fw;
         local.dissipated += w * lost;
         local.work += dot(fw, wall.velocity) * dt;
         f += fw;

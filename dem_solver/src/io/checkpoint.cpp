@@ -10,7 +10,7 @@ namespace cosim::dem {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
-constexpr std::uint32_t kVersion = 5;
+constexpr std::uint32_t kVersion = 6;
 
 class Writer {
  public:
@@ -138,6 +138,7 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
     w.pod(p.servoStress); w.pod(p.servoArea); w.pod(p.servoGain); w.pod(p.force); w.pod(p.torque);
     w.vec(s.planeShear[k]);
     w.vec(s.planeTouch[k]);
+    w.vec(s.planeContactForce[k]);
   }
   w.pod(static_cast<std::uint64_t>(s.meshes.size()));
   for (const TriangleWallGroup& m : s.meshes) {
@@ -188,6 +189,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   s.planes.resize(r.pod<std::uint64_t>());
   s.planeShear.resize(s.planes.size());
   s.planeTouch.resize(s.planes.size());
+  s.planeContactForce.resize(s.planes.size());
   for (std::size_t k = 0; k < s.planes.size(); ++k) {
     PlaneWall& p = s.planes[k];
     p.name = r.str();
@@ -196,6 +198,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     p.servoGain = r.pod<double>(); p.force = r.pod<Vec3>(); p.torque = r.pod<Vec3>();
     r.vec(s.planeShear[k]);
     r.vec(s.planeTouch[k]);
+    r.vec(s.planeContactForce[k]);
   }
   s.meshes.resize(r.pod<std::uint64_t>());
   for (TriangleWallGroup& m : s.meshes) {

@@ -70,6 +70,7 @@ class DemSystem {
   std::vector<PairForce> pairForce;           // parallel to neighbors.partner
   std::vector<std::vector<Vec3>> planeShear;  // [wall][particle] tangential history
   std::vector<std::vector<std::uint8_t>> planeTouch;  // [wall][particle] 1 while in contact
+  std::vector<std::vector<Vec3>> planeContactForce;    // [wall][particle] force on the particle (valid while touching)
 
  private:
   void pairForces(double dt);
