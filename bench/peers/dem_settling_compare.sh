@@ -11,7 +11,7 @@
 # read. Contact history cannot be carried across codes, so each code settles
 # the same number of untimed steps, then runs the same number of timed steps.
 #   dense:  N = 8000,  settle DENSE_SETTLE (20000) steps, time DENSE_STEPS (2000)
-#   dilute: N = 64000, settle DILUTE_SETTLE (2000) steps, time DILUTE_STEPS (1000)
+#   dilute: N = 64000, settle DILUTE_SETTLE (4000) steps, time DILUTE_STEPS (1000)
 # on 1 and 2 threads (THREADS="1 2"). Prints particle-steps per second (wall
 # time of the timed steps; CPU time of all the code's processes over them) and
 # the end state: kinetic energy (translational + rotational), coordination
@@ -46,7 +46,7 @@ build=$(cd "${1:-$root/build}" && pwd)
 bench=$build/bin/dem_settling_bench
 dense_settle=${DENSE_SETTLE:-20000}
 dense_steps=${DENSE_STEPS:-2000}
-dilute_settle=${DILUTE_SETTLE:-2000}
+dilute_settle=${DILUTE_SETTLE:-4000}
 dilute_steps=${DILUTE_STEPS:-1000}
 threads=${THREADS:-"1 2"}
 [ -x "$bench" ] || { echo "$bench not built (cmake --build $build --target dem_settling_bench)" >&2; exit 2; }
@@ -82,20 +82,28 @@ done
 echo "$1 $ticks $(getconf CLK_TCK)" >> "$2"
 SH
 
-lammps_input() {  # data box settle steps e x_gamma_t cpu_file
-  local data=$1 box=$2 settle=$3 steps=$4 e=$5 xgt=$6 cpu=$7
-  local law="hertz/material 5.0e7 $e 0.25 tangential mindlin NULL $xgt 0.5 damping tsuji"
+# Shared head of both inputs: SI units, spheres from the data file in a fixed
+# box split 2 x 1 x 1 between two ranks, the 0.2 mm skin checked every step.
+input_head() {  # velocity_communication_command data
   cat <<IN
 units si
 atom_style sphere
 atom_modify map array
 boundary f f f
 newton off
-comm_modify vel yes
+$1
 processors * * 1
-read_data $data
+read_data $2
 neighbor 0.0002 bin
 neigh_modify delay 0 every 1 check yes
+IN
+}
+
+lammps_input() {  # data box settle steps e x_gamma_t cpu_file
+  local data=$1 box=$2 settle=$3 steps=$4 e=$5 xgt=$6 cpu=$7
+  local law="hertz/material 5.0e7 $e 0.25 tangential mindlin NULL $xgt 0.5 damping tsuji"
+  input_head "comm_modify vel yes" "$data"
+  cat <<IN
 pair_style granular
 pair_coeff * * $law
 fix floor all wall/gran granular $law zplane 0.0 NULL
@@ -104,29 +112,15 @@ fix ywalls all wall/gran granular $law yplane 0.0 $box
 fix gravity all gravity 9.81 vector 0 0 -1
 fix integrate all nve/sphere
 timestep 5.0e-6
-$(end_state_computes)
-run $settle
-shell sh cpu.sh start $cpu
-run $steps
-shell sh cpu.sh end $cpu
-$(end_state_print)
+$(settle_and_time "$settle" "$steps" "$cpu")
 IN
 }
 
 liggghts_input() {  # data box settle steps e cpu_file
   local data=$1 box=$2 settle=$3 steps=$4 e=$5 cpu=$6
   local wall="wall/gran model hertz tangential history primitive type 1"
+  input_head "communicate single vel yes" "$data"
   cat <<IN
-units si
-atom_style sphere
-atom_modify map array
-boundary f f f
-newton off
-communicate single vel yes
-processors * * 1
-read_data $data
-neighbor 0.0002 bin
-neigh_modify delay 0
 fix m1 all property/global youngsModulus peratomtype 5.0e7
 fix m2 all property/global poissonsRatio peratomtype 0.25
 fix m3 all property/global coefficientRestitution peratomtypepair 1 $e
@@ -141,16 +135,13 @@ fix yhi all $wall yplane $box
 fix gravity all gravity 9.81 vector 0 0 -1
 fix integrate all nve/sphere
 timestep 5.0e-6
-$(end_state_computes)
-run $settle
-shell sh cpu.sh start $cpu
-run $steps
-shell sh cpu.sh end $cpu
-$(end_state_print)
+$(settle_and_time "$settle" "$steps" "$cpu")
 IN
 }
 
-end_state_computes() {
+# Shared tail of both inputs: end-state computes, the untimed settling run,
+# the timed run between two CPU readings, the end state.
+settle_and_time() {  # settle steps cpu_file
   cat <<'IN'
 compute ke all ke
 compute rot all erotate/sphere
@@ -164,9 +155,12 @@ thermo_style custom step atoms c_ke c_rot c_csum c_zmax
 thermo 1000000
 thermo_modify lost error
 IN
-}
-
-end_state_print() {
+  cat <<IN
+run $1
+shell sh cpu.sh start $3
+run $2
+shell sh cpu.sh end $3
+IN
   echo 'print "END ${kinetic} ${coordination} ${top}"'
 }
 

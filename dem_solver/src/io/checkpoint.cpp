@@ -140,6 +140,8 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
     w.vec(s.planeTouch[k]);
     w.vec(s.planeContactForce[k]);
   }
+  w.vec(s.planeNear);
+  w.vec(s.planesAtMark);
   w.pod(static_cast<std::uint64_t>(s.meshes.size()));
   for (const TriangleWallGroup& m : s.meshes) {
     w.str(m.name);
@@ -200,6 +202,8 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     r.vec(s.planeTouch[k]);
     r.vec(s.planeContactForce[k]);
   }
+  r.vec(s.planeNear);
+  r.vec(s.planesAtMark);
   s.meshes.resize(r.pod<std::uint64_t>());
   for (TriangleWallGroup& m : s.meshes) {
     m.name = r.str();
@@ -212,7 +216,8 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
   }
   const std::size_t n = s.particles.size();
-  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size())
+  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size() ||
+      s.planeNear.size() != n)
     throw std::runtime_error(path + ": inconsistent checkpoint (neighbour list does not match particles)");
 }
 
