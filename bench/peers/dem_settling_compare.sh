@@ -35,8 +35,9 @@
 # stored shear into the tangent plane only when it points along +n; both take
 # the radius, dem_solver r - u/2, as the lever arm of the contact point.
 # 2 threads: dem_solver with OpenMP; LAMMPS and LIGGGHTS as 2 MPI ranks
-# (mpirun; Debian's LAMMPS has no OPENMP package, LIGGGHTS no OpenMP), split
-# 2 x 1 x 1 so both ranks hold half the packing.
+# (mpirun; Debian's LAMMPS has no OPENMP package, LIGGGHTS no OpenMP), the
+# box split in x or y (processors * * 1) so both ranks hold half the packing.
+# Takes about 8 minutes on 2 cores (16 when other jobs load them).
 #
 #   bench/peers/dem_settling_compare.sh [BUILD_DIR]
 # Installs Debian's liggghts and lammps packages when missing.
@@ -83,7 +84,7 @@ echo "$1 $ticks $(getconf CLK_TCK)" >> "$2"
 SH
 
 # Shared head of both inputs: SI units, spheres from the data file in a fixed
-# box split 2 x 1 x 1 between two ranks, the 0.2 mm skin checked every step.
+# box split in x or y between two ranks, the 0.2 mm skin checked every step.
 input_head() {  # velocity_communication_command data
   cat <<IN
 units si
