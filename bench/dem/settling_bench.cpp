@@ -6,17 +6,23 @@
 //
 //   dem_settling_bench [--n 8000|64000] [--steps S] [--settle S0] [--threads T] [--scene FILE]
 //                      [--state FILE]   (reuse a settled state: read it if present, else write it)
+//                      [--data FILE]    (write the initial state as a LAMMPS data file and stop)
 //
 // The scene's lattice is resized to n = side^3 spheres (the box grows with it);
 // --settle runs S0 untimed steps first so the timed steps see a dense packing.
+// --data hands the same jittered lattice to LAMMPS and LIGGGHTS (read_data,
+// atom_style sphere), so bench/peers/dem_settling_compare.sh times all three
+// codes from identical positions.
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "cosim/dem/io/checkpoint.hpp"
@@ -37,10 +43,29 @@ static double cpuSeconds() {
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+// The initial state as a LAMMPS data file (atom_style sphere: id type diameter
+// density x y z), box [0, box]^2 in x and y and from the floor to twice the
+// highest sphere top in z, so nothing leaves a fixed box. All spheres are of
+// material 0, at rest.
+static void writeLammpsData(const DemSystem& s, double box, const std::string& file) {
+  const Particles& p = s.particles;
+  double top = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) top = std::max(top, p.x[i].z + p.radius[i]);
+  std::FILE* out = std::fopen(file.c_str(), "w");
+  if (!out) throw std::runtime_error("cannot write " + file);
+  std::fprintf(out, "settling scene from dem_settling_bench\n\n%zu atoms\n1 atom types\n\n", p.size());
+  std::fprintf(out, "0 %.17g xlo xhi\n0 %.17g ylo yhi\n0 %.17g zlo zhi\n\nAtoms # sphere\n\n", box, box, 2.0 * top);
+  const double density = s.materials[0].density;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    std::fprintf(out, "%zu 1 %.17g %.17g %.17g %.17g %.17g\n", i + 1, 2.0 * p.radius[i], density, p.x[i].x, p.x[i].y,
+                 p.x[i].z);
+  std::fclose(out);
+}
+
 int main(int argc, char** argv) {
   long n = 8000, steps = 2000, settle = 0;
   int threads = 0;
-  std::string scene = COSIM_DEM_CONFIG_DIR "/settling.yaml", state;
+  std::string scene = COSIM_DEM_CONFIG_DIR "/settling.yaml", state, data;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
     if (k == "--n") n = std::stol(v);
@@ -49,6 +74,7 @@ int main(int argc, char** argv) {
     else if (k == "--threads") threads = std::stoi(v);
     else if (k == "--scene") scene = v;
     else if (k == "--state") state = v;
+    else if (k == "--data") data = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -83,6 +109,14 @@ int main(int argc, char** argv) {
   configure(params, scene, s, settings);
   s.initialize();
   const double dt = schedDt;
+  if (!data.empty()) {
+    writeLammpsData(s, box, data);
+    // What the peers' damping inputs are mapped from (bench/peers/dem_settling_compare.sh).
+    const PairMaterial& pm = s.materials.pair(0, 0);
+    std::printf("pair: E* %.17g G* %.17g gamma %.17g restitution %.17g friction %.17g\n", pm.eEff, pm.gEff, pm.gamma,
+                pm.restitution, pm.friction);
+    return 0;
+  }
   std::printf("settling: N = %zu, dt = %.3g s, critical %.3g s, threads %d, law %s\n", s.particles.size(), dt,
               criticalTimeStep(s), threads, s.contactLaw().name().c_str());
   if (!state.empty() && std::ifstream(state).good()) {

@@ -1,6 +1,7 @@
 #include "cosim/dem/dem_system.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 
@@ -14,6 +15,15 @@ namespace {
 struct Partial {
   double dissipated = 0.0, work = 0.0;
   std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
+};
+
+// What the gather loop reads of one plane wall, kept together: most particles
+// touch no wall, and their test should cost a dot product and a compare.
+struct PlaneView {
+  Vec3 point, normal;
+  std::uint8_t* touch;
+  Vec3* shear;
+  Vec3* contactForce;
 };
 
 // One naive particle-triangle contact before Modifications 1 and 2.
@@ -47,8 +57,10 @@ void DemSystem::initialize() {
   planeShear.resize(planes.size());
   for (auto& s : planeShear) s.resize(n);
   planeTouch.resize(planes.size());
+  planeContactForce.resize(planes.size());
   for (std::size_t w = 0; w < planes.size(); ++w) {
     planeTouch[w].resize(n);
+    planeContactForce[w].resize(n);
     for (std::size_t i = 0; i < n; ++i) planeTouch[w][i] = norm2(planeShear[w][i]) > 0.0;
   }
   for (auto& m : meshes) {
@@ -90,10 +102,12 @@ void DemSystem::advance(double dt) {
 void DemSystem::computeForces(double dt) {
   bool rebuild = neighbors.needsRebuild(particles, &cell);
   for (const auto& m : meshes) rebuild = rebuild || m.movedBeyond(0.5 * neighbors.skin);
+  rebuild = rebuild || planeNear.size() != particles.size() || planesMovedBeyond(0.5 * neighbors.skin);
   if (rebuild) {
     if (cell.enabled) wrapIntoCell();
     neighbors.build(particles, &cell);
     pairForce.assign(neighbors.pairs(), {});
+    markPlaneCandidates();
     // Cheng 2022 Alg. 2: each triangle's bounding box, grown by the largest
     // radius and the skin, picks its candidate particles from the grid.
     double rmax = 0.0;
@@ -126,6 +140,32 @@ void DemSystem::computeForces(double dt) {
   pairForces(dt);
   gatherForces(dt);
   if (bonds.size() > 0) bonds.addForces(particles, cell, particles.f);
+}
+
+void DemSystem::markPlaneCandidates() {
+  const std::size_t n = particles.size();
+  planesAtMark.clear();
+  for (const PlaneWall& w : planes) planesAtMark.push_back({w.point, w.normal});
+  // In a periodic cell the affine motion is not in the rebuild criterion: no pruning.
+  if (cell.enabled || planes.size() > 64) {
+    planeNear.assign(n, ~std::uint64_t{0});
+    return;
+  }
+  planeNear.assign(n, 0);
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t w = 0; w < planes.size(); ++w)
+      if (planes[w].distance(particles.x[i]) < particles.radius[i] + neighbors.skin) planeNear[i] |= std::uint64_t{1} << w;
+}
+
+bool DemSystem::planesMovedBeyond(double limit) const {
+  if (planesAtMark.size() != planes.size()) return true;
+  for (std::size_t w = 0; w < planes.size(); ++w) {
+    const auto& [point, normal] = planesAtMark[w];
+    if (planes[w].normal.x != normal.x || planes[w].normal.y != normal.y || planes[w].normal.z != normal.z) return true;
+    if (std::fabs(dot(planes[w].point - point, normal)) > limit) return true;
+  }
+  return false;
 }
 
 void DemSystem::pairForces(double dt) {
@@ -170,34 +210,58 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
 #pragma omp parallel if (n > kParallelMin)
   {
     double local = 0.0;
+    std::vector<std::uint32_t> hits;  // pairs of the row in contact, in row order
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
-      const Vec3 xi = p.x[i], vi = p.v[i], wi = p.omega[i];
-      const double ri = p.radius[i];
-      Vec3 fi{}, ti{};
-      for (std::uint32_t k = neighbors.rowStart[i]; k < neighbors.rowStart[i + 1]; ++k) {
+      const std::uint32_t begin = neighbors.rowStart[i], end = neighbors.rowStart[i + 1];
+      if (begin == end) {  // no partners (most rows of a dilute flow)
+        pairSumF_[i] = pairSumT_[i] = {};
+        continue;
+      }
+      const Vec3 xi = p.x[i];
+      const double ri = p.radius[i], mi = p.mass[i];
+      // Two passes: sort out the pairs in contact without branching on each
+      // (about half of them are: a branch there is mispredicted often), then
+      // evaluate the contacts in the same order.
+      if (hits.size() < end - begin) hits.resize(end - begin);
+      std::size_t count = 0;
+      for (std::uint32_t k = begin; k < end; ++k) {
         const std::uint32_t j = neighbors.partner[k];
         Vec3 d = xi - p.x[j];
         if constexpr (Periodic) d -= cell.shift(neighbors.image[k]);
         const double rsum = ri + p.radius[j];
-        const double dist2 = norm2(d);
-        if (dist2 >= rsum * rsum) {
-          if (neighbors.touching[k]) {
-            neighbors.touching[k] = 0;
-            neighbors.shear[k] = {};  // contact lost: history ends
-            pairForce[k] = {};
-          }
-          continue;
+        const bool contact = norm2(d) < rsum * rsum;
+        hits[count] = k;
+        count += contact ? 1 : 0;
+        if (!contact && neighbors.touching[k]) {
+          neighbors.touching[k] = 0;
+          neighbors.shear[k] = {};  // contact lost: history ends
+          pairForce[k] = {};
         }
+      }
+      const Vec3 vi = p.v[i], wi = p.omega[i];
+      Vec3 fi{}, ti{};
+      for (std::size_t h = 0; h < count; ++h) {
+        const std::uint32_t k = hits[h];
+        const std::uint32_t j = neighbors.partner[k];
+        Vec3 d = xi - p.x[j];
+        if constexpr (Periodic) d -= cell.shift(neighbors.image[k]);
+        const double rj = p.radius[j];
+        const double rsum = ri + rj;
+        const double dist2 = norm2(d);
         const double dist = std::sqrt(dist2);
         const double overlap = rsum - dist;
         const Vec3 nrm = (1.0 / dist) * d;  // from j to i
-        const Vec3 ci = -(ri - 0.5 * overlap) * nrm;
-        const Vec3 cj = (p.radius[j] - 0.5 * overlap) * nrm;
-        Vec3 vrel = (vi + cross(wi, ci)) - (p.v[j] + cross(p.omega[j], cj));
+        // Contact point halfway into the overlap: c_i = -a_i n, c_j = a_j n, so
+        // v_i + w_i x c_i - (v_j + w_j x c_j) = v_i - v_j - (a_i w_i + a_j w_j) x n.
+        const double armI = ri - 0.5 * overlap, armJ = rj - 0.5 * overlap;
+        Vec3 vrel = vi - p.v[j] - cross(armI * wi + armJ * p.omega[j], nrm);
         if constexpr (Periodic) vrel += mul(cell.velocityGradient, d);  // affine part of the relative motion
-        const double rEff = ri * p.radius[j] / rsum;
-        const double mEff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+        // R* = r_i r_j / (r_i + r_j) and m* likewise, with one division.
+        const double mj = p.mass[j], msum = mi + mj;
+        const double inv = 1.0 / (rsum * msum);
+        const double rEff = ri * rj * msum * inv;
+        const double mEff = mi * mj * rsum * inv;
         const PairMaterial& pm = materials.pair(p.material[i], p.material[j]);
         double lost = 0.0;
         Vec3 f = composedForce(normalLaw, tangentialLaw, nrm, overlap, vrel, rEff, mEff, pm, dt, neighbors.shear[k], lost);
@@ -208,8 +272,10 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
         local += wc * lost;
         neighbors.touching[k] = 1;
         fi += f;
-        ti += cross(ci, f);
-        pairForce[k] = {f, -cross(cj, f)};
+        // Torques c_i x f = -a_i n x f on i and -c_j x f = -a_j n x f on j.
+        const Vec3 nf = cross(nrm, f);
+        ti -= armI * nf;
+        pairForce[k] = {f, -armJ * nf};
       }
       pairSumF_[i] = fi;
       pairSumT_[i] = ti;
@@ -225,6 +291,10 @@ void DemSystem::gatherForces(double dt) {
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
   std::vector<Partial> partial(static_cast<std::size_t>(threadCount()));
+  std::vector<PlaneView> views(nw);
+  for (std::size_t wl = 0; wl < nw; ++wl)
+    views[wl] = {planes[wl].point, planes[wl].normal, planeTouch[wl].data(), planeShear[wl].data(),
+                 planeContactForce[wl].data()};
   for (auto& m : meshes) m.contacts.clear();
   // Mesh contacts of each particle, compacted into the groups' lists afterwards.
   std::vector<std::vector<TriangleContact>> meshOut(nm);
@@ -263,32 +333,38 @@ void DemSystem::gatherForces(double dt) {
         f += Vec3{fx, fy, fz};
         t = {tx, ty, tz};
       }
-      local.work += dot(p.fExt[i], p.v[i]) * dt;
+      if (p.fExt[i].x != 0.0 || p.fExt[i].y != 0.0 || p.fExt[i].z != 0.0) local.work += dot(p.fExt[i], p.v[i]) * dt;
       const double ri = p.radius[i];
-      for (std::size_t wl = 0; wl < nw; ++wl) {
-        const PlaneWall& wall = planes[wl];
-        const double overlap = ri - wall.distance(p.x[i]);
+      const Vec3 xi = p.x[i];
+      // Only the planes marked near i; in increasing order, as over all of them.
+      for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
+        const auto wl = static_cast<std::size_t>(std::countr_zero(near));
+        if (wl >= nw) break;
+        const PlaneView& view = views[wl];
+        const double overlap = ri - dot(xi - view.point, view.normal);  // PlaneWall::distance
         if (overlap <= 0.0) {
-          if (planeTouch[wl][i]) {  // contact lost: its history ends
-            planeTouch[wl][i] = 0;
-            planeShear[wl][i] = {};
+          if (view.touch[i]) {  // contact lost: its history ends
+            view.touch[i] = 0;
+            view.shear[i] = {};
           }
           continue;
         }
-        planeTouch[wl][i] = 1;
-        Vec3& shear = planeShear[wl][i];
+        const PlaneWall& wall = planes[wl];
+        view.touch[i] = 1;
+        Vec3& shear = view.shear[i];
         const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
         const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
         double lost = 0.0;
         Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
                             dt, shear, lost);
         fw *= w;
+        view.contactForce[i] = fw;
         local.dissipated += w * lost;
         local.work += dot(fw, wall.velocity) * dt;
         f += fw;
         t += cross(ci, fw);
         local.planeForce[wl] -= fw;
-        local.planeTorque[wl] -= cross(p.x[i] + ci - wall.point, fw);
+        local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
       }
       for (std::size_t g = 0; g < nm; ++g) {
         TriangleWallGroup& m = meshes[g];

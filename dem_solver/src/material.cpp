@@ -1,6 +1,7 @@
 #include "cosim/dem/material.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace cosim::dem {
@@ -13,6 +14,7 @@ PairMaterial combine(const Material& a, const Material& b) {
   p.eEff = 1.0 / ((1.0 - a.poisson * a.poisson) / a.young + (1.0 - b.poisson * b.poisson) / b.young);
   // Mindlin: 1/G* = (2-nu_a)/G_a + (2-nu_b)/G_b (Hartmann 2022 Eq. 36, symmetric form).
   p.gEff = 1.0 / ((2.0 - a.poisson) / a.shearModulus() + (2.0 - b.poisson) / b.shearModulus());
+  p.mindlinDashpotRatio = std::sqrt(4.0 * p.gEff / p.eEff);
   p.friction = std::min(a.friction, b.friction);
   p.restitution = std::min(a.restitution, b.restitution);
   // Springs in series for the linear law (two equal materials give k/2 each side, k in total).

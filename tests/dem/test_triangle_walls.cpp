@@ -248,3 +248,57 @@ TEST(DemTriangleWalls, ContactReportsTriangleBarycentricsAndForce) {
 
 }  // namespace
 }  // namespace cosim::dem::test
+
+namespace cosim::dem::test {
+namespace {
+
+// Love-Weber stress with walls (Liu 2016 Eq. 54, walls as contact partners):
+// two spheres in a row pressed between a plane wall at x = 0 and a wall at
+// x = L, at rest and in equilibrium (each contact carries the same Hertz force
+// F). Over the volume between the walls, sigma_xx V = -F L exactly; the pair
+// term alone gives -F (2r - u_p), so the wall terms carry the difference.
+void checkWallStress(bool triangleLid) {
+  DemSystem s;
+  s.setContactLaw("hertz", "none", "none");
+  s.materials.add(glass());
+  s.gravity = {};
+  // Equal forces: wall contacts have R* = r, the pair R* = r/2, so u_p = 2^(1/3) u_w.
+  const double uw = 2e-5, up = std::cbrt(2.0) * uw;
+  const double xa = kR - uw, xb = xa + 2 * kR - up, length = xb + kR - uw;
+  const double y = 0.2 * kR, z = -0.1 * kR;
+  s.particles.add({xa, y, z}, kR, 2500);
+  s.particles.add({xb, y, z}, kR, 2500);
+  PlaneWall left;
+  left.normal = {1, 0, 0};
+  s.planes.push_back(left);
+  if (triangleLid) {
+    TriangleWallGroup g;
+    const double h = 0.05;
+    g.vertices = {{length, -h, -h}, {length, h, -h}, {length, h, h}, {length, -h, h}};
+    g.triangles = {{0, 1, 2}, {0, 2, 3}};
+    g.velocities.assign(g.vertices.size(), {});
+    s.meshes.push_back(g);
+  } else {
+    PlaneWall right;
+    right.point = {length, 0, 0};
+    right.normal = {-1, 0, 0};
+    s.planes.push_back(right);
+  }
+  s.neighbors.skin = 0.1 * kR;
+  s.initialize();
+  const double force = -s.planes[0].force.x;  // the particles push the left wall towards -x
+  ASSERT_GT(force, 0.0);
+  EXPECT_NEAR(norm(s.particles.f[0]), 0.0, 1e-12 * force);  // equilibrium to round-off
+  const double area = 1e-4, volume = area * length;
+  const auto sig = loveWeberStress(s, volume);
+  std::printf("%s lid: sigma_xx %.10e Pa, -F/A %.10e Pa, pair term alone %.10e Pa\n",
+              triangleLid ? "triangle" : "plane", sig[0], -force / area, -force * (xb - xa) / volume);
+  EXPECT_NEAR(sig[0], -force / area, 1e-12 * force / area);
+  for (std::size_t k = 1; k < 9; ++k) EXPECT_NEAR(sig[k], 0.0, 1e-12 * force / area) << k;
+}
+
+TEST(DemTriangleWalls, LoveWeberStressIncludesPlaneWalls) { checkWallStress(false); }
+TEST(DemTriangleWalls, LoveWeberStressIncludesTriangleWalls) { checkWallStress(true); }
+
+}  // namespace
+}  // namespace cosim::dem::test

@@ -1,5 +1,7 @@
 #include "cosim/dem/contact/contact_law.hpp"
 
+#include "cosim/dem/contact/builtin_laws.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -9,7 +11,9 @@ ContactLaw::ContactLaw(const std::string& normal, const std::string& tangential,
     : normal_(NormalLawRegistry::create(normal, "normal contact law")),
       tangential_(TangentialLawRegistry::create(tangential, "tangential contact law")),
       damping_(DampingLawRegistry::create(damping, "damping law")),
-      name_(normal + "/" + tangential + "/" + damping) {}
+      name_(normal + "/" + tangential + "/" + damping),
+      hertzMindlin_(dynamic_cast<const HertzNormal*>(normal_.get()) &&
+                    dynamic_cast<const MindlinTangential*>(tangential_.get())) {}
 
 void ContactLaw::prepare(MaterialTable& table) const {
   auto& pairs = table.pairs();
@@ -25,6 +29,9 @@ void ContactLaw::prepare(MaterialTable& table) const {
 
 Vec3 ContactLaw::force(const Vec3& n, double overlap, const Vec3& vRel, double rEff, double mEff,
                        const PairMaterial& pm, double dt, Vec3& shear, double& dissipated) const {
+  if (hertzMindlin_)
+    return composedForce(static_cast<const HertzNormal&>(*normal_), static_cast<const MindlinTangential&>(*tangential_),
+                         n, overlap, vRel, rEff, mEff, pm, dt, shear, dissipated);
   return composedForce(*normal_, *tangential_, n, overlap, vRel, rEff, mEff, pm, dt, shear, dissipated);
 }
 

@@ -10,7 +10,7 @@ namespace cosim::dem {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
-constexpr std::uint32_t kVersion = 5;
+constexpr std::uint32_t kVersion = 6;
 
 class Writer {
  public:
@@ -138,7 +138,10 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
     w.pod(p.servoStress); w.pod(p.servoArea); w.pod(p.servoGain); w.pod(p.force); w.pod(p.torque);
     w.vec(s.planeShear[k]);
     w.vec(s.planeTouch[k]);
+    w.vec(s.planeContactForce[k]);
   }
+  w.vec(s.planeNear);
+  w.vec(s.planesAtMark);
   w.pod(static_cast<std::uint64_t>(s.meshes.size()));
   for (const TriangleWallGroup& m : s.meshes) {
     w.str(m.name);
@@ -188,6 +191,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   s.planes.resize(r.pod<std::uint64_t>());
   s.planeShear.resize(s.planes.size());
   s.planeTouch.resize(s.planes.size());
+  s.planeContactForce.resize(s.planes.size());
   for (std::size_t k = 0; k < s.planes.size(); ++k) {
     PlaneWall& p = s.planes[k];
     p.name = r.str();
@@ -196,7 +200,10 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     p.servoGain = r.pod<double>(); p.force = r.pod<Vec3>(); p.torque = r.pod<Vec3>();
     r.vec(s.planeShear[k]);
     r.vec(s.planeTouch[k]);
+    r.vec(s.planeContactForce[k]);
   }
+  r.vec(s.planeNear);
+  r.vec(s.planesAtMark);
   s.meshes.resize(r.pod<std::uint64_t>());
   for (TriangleWallGroup& m : s.meshes) {
     m.name = r.str();
@@ -209,7 +216,8 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
   }
   const std::size_t n = s.particles.size();
-  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size())
+  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size() ||
+      s.planeNear.size() != n)
     throw std::runtime_error(path + ": inconsistent checkpoint (neighbour list does not match particles)");
 }
 

@@ -60,6 +60,21 @@ std::array<double, 9> loveWeberStress(const DemSystem& s, double volume) {
       if (nl.touching[k]) add(s.pairForce[k].force, s.pairVector(i, k), -1.0);
     add(p.v[i], p.v[i], -p.weight[i] * p.mass[i]);  // kinetic (Reynolds) part
   }
+  // Wall contacts: the wall is the boundary of V, so the branch runs from the
+  // particle centre to the contact point on the wall surface (Liu 2016 Eq. 54
+  // with the wall as the partner: sum_c f_c (x) (x_c - x_p)). Pair terms do not
+  // depend on where x_c lies; these do, and only the surface point makes
+  // sigma V = sum_walls f (x) x_c exact for a packing in equilibrium.
+  for (std::size_t w = 0; w < s.planes.size(); ++w)
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (s.planeTouch[w][i])
+        add(s.planeContactForce[w][i], -s.planes[w].distance(p.x[i]) * s.planes[w].normal, 1.0);
+  for (const TriangleWallGroup& m : s.meshes)
+    for (const TriangleContact& c : m.contacts) {
+      const auto& tri = m.triangles[c.triangle];
+      const Vec3 point = c.bary[0] * m.vertices[tri[0]] + c.bary[1] * m.vertices[tri[1]] + c.bary[2] * m.vertices[tri[2]];
+      add(c.force, point - p.x[c.particle], -1.0);  // c.force acts on the wall
+    }
   for (double& v : sig) v /= volume;
   return sig;
 }

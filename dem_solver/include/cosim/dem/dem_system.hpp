@@ -70,6 +70,16 @@ class DemSystem {
   std::vector<PairForce> pairForce;           // parallel to neighbors.partner
   std::vector<std::vector<Vec3>> planeShear;  // [wall][particle] tangential history
   std::vector<std::vector<std::uint8_t>> planeTouch;  // [wall][particle] 1 while in contact
+  std::vector<std::vector<Vec3>> planeContactForce;    // [wall][particle] force on the particle (valid while touching)
+  // Bit w of planeNear[i]: plane w may touch particle i before the next
+  // rebuild (closer than r_i + skin at the build; the particle and the plane
+  // each move less than skin/2 before one). All bits: no pruning (periodic
+  // cell, more than 64 planes). Marked with the neighbour list.
+  std::vector<std::uint64_t> planeNear;
+  struct PlaneMark {
+    Vec3 point, normal;
+  };
+  std::vector<PlaneMark> planesAtMark;  // each plane when planeNear was marked
 
  private:
   void pairForces(double dt);
@@ -78,6 +88,10 @@ class DemSystem {
   template <bool Periodic, class Normal, class Tangential>
   void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
   void gatherForces(double dt);
+  /// Plane candidates of each particle, with the neighbour list (see planeNear).
+  void markPlaneCandidates();
+  /// True when a plane moved along its normal by more than limit since the candidates were marked.
+  bool planesMovedBeyond(double limit) const;
   std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;

@@ -27,6 +27,7 @@ struct PairMaterial {
   double restitution = 1.0;
   double kn = 0.0, kt = 0.0;
   double gamma = 0.0;        // damping coefficient of F_d = -gamma sqrt(S m*) v, set by the damping law
+  double mindlinDashpotRatio = 0.0;  // sqrt(k_t / S_n) = sqrt(4 G*/E*) for Hertz-Mindlin
 };
 
 /// Combines two materials with the standard Hertz/Mindlin rules (see .cpp).

@@ -55,7 +55,10 @@ inline Quat rotated(const Quat& q, const Vec3& phi) {
   }
   const Quat r{c, phi.x * s, phi.y * s, phi.z * s};
   Quat out = r * q;
-  const double inv = 1.0 / std::sqrt(out.w * out.w + out.x * out.x + out.y * out.y + out.z * out.z);
+  // |out|^2 = 1 + e with |e| ~ 1e-16: one Newton step from 1, 1/sqrt(1 + e) = 1 - e/2 + O(e^2),
+  // replaces the root and the division; far from 1 (a quaternion set from outside) the exact form.
+  const double n2 = out.w * out.w + out.x * out.x + out.y * out.y + out.z * out.z;
+  const double inv = std::fabs(n2 - 1.0) < 1e-8 ? 1.5 - 0.5 * n2 : 1.0 / std::sqrt(n2);
   out.w *= inv; out.x *= inv; out.y *= inv; out.z *= inv;
   return out;
 }

@@ -49,8 +49,8 @@ class MindlinTangential final : public TangentialLaw {
  public:
   Vec3 evaluate(const TangentialInput& in, Vec3& shear, double& dissipated) const override {
     const double before = std::max(0.0, in.overlap - in.overlapRate * in.dt);  // overlap one step ago
-    return tangentialSpring(in, stiffness(in.overlap, in.rEff, *in.pm), stiffness(before, in.rEff, *in.pm), shear,
-                            dissipated);
+    const double kt = stiffness(in.overlap, in.rEff, *in.pm);
+    return tangentialSpring(in, kt, stiffness(before, in.rEff, *in.pm), tangentialDashpot(in, kt), shear, dissipated);
   }
   double stiffness(double overlap, double rEff, const PairMaterial& pm) const override {
     return 8.0 * pm.gEff * std::sqrt(rEff * overlap);
@@ -61,7 +61,7 @@ class MindlinTangential final : public TangentialLaw {
 class LinearTangential final : public TangentialLaw {
  public:
   Vec3 evaluate(const TangentialInput& in, Vec3& shear, double& dissipated) const override {
-    return tangentialSpring(in, in.pm->kt, in.pm->kt, shear, dissipated);
+    return tangentialSpring(in, in.pm->kt, in.pm->kt, tangentialDashpot(in, in.pm->kt), shear, dissipated);
   }
   double stiffness(double, double, const PairMaterial& pm) const override { return pm.kt; }
 };
@@ -75,5 +75,28 @@ class Frictionless final : public TangentialLaw {
   }
   double stiffness(double, double, const PairMaterial&) const override { return 0.0; }
 };
+
+/// Hertz-Mindlin with Tsuji dashpots in one pass (the built-in law of the
+/// settling benchmark): the contact radius a = sqrt(R* u) gives F_n, S_n = 2 E* a
+/// and k_t = 8 G* a (Hartmann 2022 Eqs. 33-36), and the two dashpots share one
+/// root, sqrt(k_t m*) = sqrt(S_n m*) sqrt(4 G*/E*). The same force as the
+/// composition of the two parts, with two square roots fewer per contact.
+inline Vec3 composedForce(const HertzNormal&, const MindlinTangential&, const Vec3& n, double overlap,
+                          const Vec3& vRel, double rEff, double mEff, const PairMaterial& pm, double dt, Vec3& shear,
+                          double& dissipated) {
+  const double a = std::sqrt(rEff * overlap);
+  const double stiffness = 2.0 * pm.eEff * a;
+  const double vn = dot(vRel, n);
+  const double root = pm.gamma > 0.0 ? std::sqrt(stiffness * mEff) : 0.0;
+  const double damp = -pm.gamma * root * vn;
+  const double fn = 4.0 / 3.0 * pm.eEff * a * overlap + damp;
+  dissipated += -damp * vn * dt;
+  const TangentialInput in = tangentialInput(n, vRel, vn, overlap, rEff, mEff, fn, dt, pm);
+  const double before = std::max(0.0, overlap + vn * dt);  // overlap one step ago
+  const double kt = 8.0 * pm.gEff * a;
+  const Vec3 ft = tangentialSpring(in, kt, 8.0 * pm.gEff * std::sqrt(rEff * before),
+                                   pm.gamma * root * pm.mindlinDashpotRatio, shear, dissipated);
+  return fn * n + ft;
+}
 
 }  // namespace cosim::dem

@@ -86,7 +86,15 @@ class ContactLaw {
   std::unique_ptr<TangentialLaw> tangential_;
   std::unique_ptr<DampingLaw> damping_;
   std::string name_;
+  bool hertzMindlin_ = false;  // the built-in pair: force() takes the fused path
 };
+
+/// What the tangential part sees of a contact: v_n = vRel . n, normal force fn.
+inline TangentialInput tangentialInput(const Vec3& n, const Vec3& vRel, double vn, double overlap, double rEff,
+                                       double mEff, double fn, double dt, const PairMaterial& pm) {
+  return {.n = n, .vt = vRel - vn * n, .overlap = overlap, .rEff = rEff, .mEff = mEff, .fnMag = std::fabs(fn),
+          .dt = dt, .overlapRate = -vn, .pm = &pm};
+}
 
 /// The composition normal x tangential x damping for one contact. A template
 /// so the force loop can instantiate it for concrete (final) law classes and
@@ -102,16 +110,7 @@ inline Vec3 composedForce(const Normal& normal, const Tangential& tangential, co
   const double damp = pm.gamma > 0.0 ? -pm.gamma * std::sqrt(nr.stiffness * mEff) * vn : 0.0;
   const double fn = nr.force + damp;
   dissipated += -damp * vn * dt;  // power of the dashpot, >= 0
-  TangentialInput in;
-  in.n = n;
-  in.vt = vRel - vn * n;
-  in.overlap = overlap;
-  in.rEff = rEff;
-  in.mEff = mEff;
-  in.fnMag = std::fabs(fn);
-  in.dt = dt;
-  in.overlapRate = -vn;
-  in.pm = &pm;
+  const TangentialInput in = tangentialInput(n, vRel, vn, overlap, rEff, mEff, fn, dt, pm);
   const Vec3 ft = tangential.evaluate(in, shear, dissipated);
   return fn * n + ft;
 }

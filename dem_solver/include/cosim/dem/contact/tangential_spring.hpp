@@ -12,7 +12,13 @@ namespace cosim::dem {
 /// overlap), so the energy balance books what the stiffness change adds or
 /// removes from the stored spring energy (the incremental Mindlin model is not
 /// derived from a potential; that difference appears in `dissipated`).
-inline Vec3 tangentialSpring(const TangentialInput& in, double kt, double ktBefore, Vec3& shear, double& dissipated) {
+/// ct: the tangential dashpot, gamma sqrt(k_t m*) (Tsuji form, as the normal one).
+inline double tangentialDashpot(const TangentialInput& in, double kt) {
+  return in.pm->gamma > 0.0 ? in.pm->gamma * std::sqrt(kt * in.mEff) : 0.0;
+}
+
+inline Vec3 tangentialSpring(const TangentialInput& in, double kt, double ktBefore, double ct, Vec3& shear,
+                             double& dissipated) {
   const double fmax = in.pm->friction * in.fnMag;  // Hartmann 2022 Eq. 35: |f_s| <= mu |f_n|
   if (fmax <= 0.0 || kt <= 0.0) {
     shear = {};
@@ -26,7 +32,6 @@ inline Vec3 tangentialSpring(const TangentialInput& in, double kt, double ktBefo
   if (p2 > 0.0) sh *= std::sqrt(s2 / p2);
   const double before = 0.5 * ktBefore * s2;
   sh += in.vt * in.dt;  // Hartmann 2022 Eq. 34 with the spring factored out: du_s = v_s dt
-  const double ct = in.pm->gamma * std::sqrt(kt * in.mEff);  // tangential dashpot, same Tsuji form
   Vec3 ft = -kt * sh - ct * in.vt;
   const double f2 = norm2(ft);
   if (f2 > fmax * fmax) {

@@ -23,9 +23,12 @@ Energies energies(const DemSystem& s);
 /// Mean number of particle-particle contacts per particle, 2 C / N.
 double coordinationNumber(const DemSystem& s);
 /// Cauchy stress (tension positive), row-major 3x3, over volume V (Love-Weber):
-/// sigma = -1/V [ sum_c f_c (x) d_c + sum_p m_p v_p (x) v_p ] with d_c = x_i - x_j
-/// (Liu 2016 Eq. 54 with the kinetic part). Particle-particle contacts only: meant
-/// for periodic cells and interior sub-volumes; wall reactions are in PlaneWall::force.
+/// sigma = 1/V [ -sum_c f_c (x) d_c + sum_w f_w (x) b_w - sum_p m_p v_p (x) v_p ] with
+/// d_c = x_i - x_j for particle pairs and, for wall contacts (plane and triangle),
+/// f_w the wall's force on the particle and b_w the branch from the particle centre
+/// to the contact point on the wall surface (Liu 2016 Eq. 54 with the kinetic part).
+/// V is the volume the walls bound (or the periodic cell); wall terms use the
+/// forces of the last force evaluation.
 std::array<double, 9> loveWeberStress(const DemSystem& s, double volume);
 double solidVolume(const DemSystem& s);
 /// Unbalanced-force index (Liu 2016 Eq. 57, after Ng):
