@@ -155,7 +155,7 @@ class GmhCoupling final : public Coupling {
       dt_ = list.getDt();
       ids_.insert(ids_.end(), ids.begin(), ids.end());
       increments_.insert(increments_.end(), inc.begin(), inc.end());
-      positions_.insert(positions_.end(), pos.begin(), pos.end());
+      if (radius_ > 0.0) positions_.insert(positions_.end(), pos.begin(), pos.end());  // only the nonlocal operator reads them
     }
   }
 

@@ -44,6 +44,28 @@ DemSystem loadCell(const YamlSection& s, const std::string& key, const std::stri
   return cell;
 }
 
+/// One UnitCellResults list of n cells, filled cell by cell (jobs and the setup report).
+struct ResultRows {
+  std::span<std::uint32_t> ids;
+  std::span<double> stress, porosity, coordination, index;
+  std::span<std::uint32_t> steps;
+  ResultRows(proto::UnitCellResults::Builder r, unsigned n)
+      : ids(wire::view(r.initCellIds(n))),
+        stress(wire::view(r.initStresses(9 * n))),
+        porosity(wire::view(r.initPorosities(n))),
+        coordination(wire::view(r.initCoordinationNumbers(n))),
+        index(wire::view(r.initUnbalancedForceIndices(n))),
+        steps(wire::view(r.initRelaxationSteps(n))) {}
+  void set(unsigned k, std::uint32_t id, const CellMeasures& m, std::uint32_t relaxationSteps) {
+    ids[k] = id;
+    for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = m.stress[c];
+    porosity[k] = m.porosity;
+    coordination[k] = m.coordination;
+    index[k] = m.unbalancedForceIndex;
+    steps[k] = relaxationSteps;
+  }
+};
+
 RelaxSettings readRelaxSettings(const YamlSection& s, const DemSystem& prototype) {
   RelaxSettings r;
   const double factor = s.positive("dt_factor", 0.5);
@@ -136,22 +158,11 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
       throw SolverError(Code::BAD_INPUT, "unit-cell jobs: " + std::to_string(strains.size()) + " strain values for " +
                                              std::to_string(ids.size()) + " cells (need 9 each)");
     for (std::uint32_t id : ids) cell(id);  // every id known before any cell moves
-    auto r = resultLists[list];
     const auto n = static_cast<unsigned>(ids.size());
-    auto outIds = wire::view(r.initCellIds(n));
-    auto stress = wire::view(r.initStresses(9 * n));
-    auto porosity = wire::view(r.initPorosities(n));
-    auto coordination = wire::view(r.initCoordinationNumbers(n));
-    auto index = wire::view(r.initUnbalancedForceIndices(n));
-    auto jobSteps = wire::view(r.initRelaxationSteps(n));
+    ResultRows rows(resultLists[list], n);
     for (unsigned k = 0; k < n; ++k) {
       const JobOutcome o = runUnitCellJob(cell(ids[k]), increment(strains, k, ids[k]), relax_);
-      outIds[k] = ids[k];
-      for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = o.measures.stress[c];
-      porosity[k] = o.measures.porosity;
-      coordination[k] = o.measures.coordination;
-      index[k] = o.measures.unbalancedForceIndex;
-      jobSteps[k] = static_cast<std::uint32_t>(o.steps);
+      rows.set(k, ids[k], o.measures, static_cast<std::uint32_t>(o.steps));
       if (const std::string why = o.problem(); !why.empty())
         failures += (failures.empty() ? "" : "; ") + std::string("cell ") + std::to_string(ids[k]) + ": " + why;
     }
@@ -160,22 +171,9 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
 }
 
 void UnitCellWorker::report(proto::CouplingData::Builder outputs) const {
-  auto r = outputs.initUnitCellResults(1)[0];
   const auto n = static_cast<unsigned>(ids_.size());
-  auto outIds = wire::view(r.initCellIds(n));
-  auto stress = wire::view(r.initStresses(9 * n));
-  auto porosity = wire::view(r.initPorosities(n));
-  auto coordination = wire::view(r.initCoordinationNumbers(n));
-  auto index = wire::view(r.initUnbalancedForceIndices(n));
-  r.initRelaxationSteps(n);
-  for (unsigned k = 0; k < n; ++k) {
-    const CellMeasures m = measureCell(*cells_[k]);
-    outIds[k] = ids_[k];
-    for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = m.stress[c];
-    porosity[k] = m.porosity;
-    coordination[k] = m.coordination;
-    index[k] = m.unbalancedForceIndex;
-  }
+  ResultRows rows(outputs.initUnitCellResults(1)[0], n);
+  for (unsigned k = 0; k < n; ++k) rows.set(k, ids_[k], measureCell(*cells_[k]), 0);
 }
 
 std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {

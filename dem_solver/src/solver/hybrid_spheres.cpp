@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cosim/dem/solver/scene_params.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::dem {
@@ -123,26 +124,20 @@ void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& syste
 }
 
 void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance) const {
-  const Particles& p = system.particles;
   std::unordered_map<std::uint32_t, std::uint32_t> pdIdOf;  // DEM index -> PD id
   for (std::size_t k = 0; k < index_.size(); ++k) pdIdOf.emplace(index_[k], ids_[k]);
-  const NeighborList& nl = system.neighbors;  // family pairs are excluded from it
-  for (std::uint32_t i = 0; i + 1 < nl.rowStart.size(); ++i)
-    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const auto hi = pdIdOf.find(i), hj = pdIdOf.find(j);
-      if (hi == pdIdOf.end() && hj == pdIdOf.end()) continue;
-      const double overlap = p.radius[i] + p.radius[j] - norm(system.pairVector(i, k));
-      const double allowed = tolerance * std::min(p.radius[i], p.radius[j]);
-      if (overlap <= allowed) continue;
-      const auto name = [&](std::uint32_t n, auto h) {
-        return h != pdIdOf.end() ? "hybrid PD particle " + std::to_string(h->second)
-                                 : "DEM particle " + std::to_string(p.id[n]);
-      };
-      throw std::invalid_argument(name(i, hi) + " starts inside " + name(j, hj) + ": overlap " +
-                                  std::to_string(overlap) + " m, tolerance " + std::to_string(allowed) +
-                                  " m (params.overlap_tolerance x the smaller radius)");
-    }
+  const auto o = excessOverlap(system, tolerance, [&pdIdOf](std::uint32_t i, std::uint32_t j) {
+    return pdIdOf.count(i) > 0 || pdIdOf.count(j) > 0;
+  });
+  if (!o) return;
+  const auto name = [&](std::uint32_t n) {
+    const auto h = pdIdOf.find(n);
+    return h != pdIdOf.end() ? "hybrid PD particle " + std::to_string(h->second)
+                             : "DEM particle " + std::to_string(system.particles.id[n]);
+  };
+  throw std::invalid_argument(name(o->i) + " starts inside " + name(o->j) + ": overlap " + std::to_string(o->overlap) +
+                              " m, tolerance " + std::to_string(o->allowed) +
+                              " m (params.overlap_tolerance x the smaller radius)");
 }
 
 void HybridSpheres::beginInterval() { impulse_.assign(ids_.size(), {}); }

@@ -331,17 +331,25 @@ void checkParticles(const DemSystem& system, double overlapTolerance, const std:
       throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-positive density");
   }
   // Initial overlaps beyond the tolerance would start the run with a blast.
+  if (const auto o = excessOverlap(system, overlapTolerance))
+    throw SceneError(context + ": particles " + std::to_string(p.id[o->i]) + " and " + std::to_string(p.id[o->j]) +
+                     " overlap by " + std::to_string(o->overlap) + " m at start (tolerance " +
+                     std::to_string(o->allowed) + " m, params.overlap_tolerance)");
+}
+
+std::optional<ExcessOverlap> excessOverlap(const DemSystem& system, double overlapTolerance,
+                                           const std::function<bool(std::uint32_t, std::uint32_t)>& considered) {
+  const Particles& p = system.particles;
   const NeighborList& nl = system.neighbors;
-  for (std::size_t i = 0; i < p.size(); ++i)
+  for (std::uint32_t i = 0; i + 1 < nl.rowStart.size(); ++i)
     for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
       const std::uint32_t j = nl.partner[k];
+      if (considered && !considered(i, j)) continue;
       const double overlap = p.radius[i] + p.radius[j] - norm(system.pairVector(i, k));
       const double allowed = overlapTolerance * std::min(p.radius[i], p.radius[j]);
-      if (overlap > allowed)
-        throw SceneError(context + ": particles " + std::to_string(p.id[i]) + " and " + std::to_string(p.id[j]) +
-                         " overlap by " + std::to_string(overlap) + " m at start (tolerance " +
-                         std::to_string(allowed) + " m, params.overlap_tolerance)");
+      if (overlap > allowed) return ExcessOverlap{i, j, overlap, allowed};
     }
+  return std::nullopt;
 }
 
 }  // namespace cosim::dem

@@ -28,6 +28,8 @@
 //       - {name: overlap, box: {min: [x, y, z], max: [x, y, z]}}   # those starting inside the box
 #include <yaml-cpp/yaml.h>
 
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,5 +61,15 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
 void configure(const YAML::Node& params, const std::string& sceneFile, DemSystem& system, RunSettings& settings);
 /// Checks radii, densities, finiteness and initial overlaps; throws naming the particle.
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context);
+
+/// A neighbour pair overlapping by more than overlapTolerance x the smaller radius.
+struct ExcessOverlap {
+  std::uint32_t i = 0, j = 0;  // particle indices
+  double overlap = 0.0, allowed = 0.0;
+};
+/// The first such pair among those `considered` (all when empty) in the
+/// neighbour list, which leaves out excluded pairs (bonds, PD families).
+std::optional<ExcessOverlap> excessOverlap(const DemSystem& system, double overlapTolerance,
+                                           const std::function<bool(std::uint32_t, std::uint32_t)>& considered = {});
 
 }  // namespace cosim::dem
