@@ -19,6 +19,7 @@
 // wire library's memory handling or framing would gain.
 #include <malloc.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -34,6 +35,7 @@
 #include <functional>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <span>
 #include <sstream>
@@ -42,6 +44,7 @@
 #include <thread>
 #include <vector>
 
+#include "cosim/util/cpu_affinity.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/endpoint.hpp"
 #include "cosim/wire/message.hpp"
@@ -80,8 +83,14 @@ const std::array<Case, 4> kCases = {
 // Streamed requests in flight at once (the peer acknowledges each).
 constexpr int kStreamWindow = 4;
 
+/// Where the parent and its echo peer run: where the OS puts them, or both
+/// (every thread) on the one CPU the parent is on, as a scene's
+/// `placement: {processes: packed}` does.
+enum class Placement { spread, packed };
+
 struct Options {
   bool quick = false;
+  std::vector<Placement> placements{Placement::spread, Placement::packed};
   bool requireTargets = false;
   std::string experiment;  // instead of the table: "heap" or "floor" (see below)
 };
@@ -93,6 +102,7 @@ struct Row {
   double medianUs = 0.0, p10Us = 0.0, p90Us = 0.0;
   double buildUs = 0.0;  // median time to build the request (allocation + payload copy)
   double streamGBps = 0.0;  // one-way payload throughput with requests streamed (0: not measured)
+  Placement placement = Placement::spread;
 };
 
 double secondsSince(Clock::time_point t0) {
@@ -602,8 +612,13 @@ std::vector<Row> runCases(wire::RouterSocket& router, EchoChild& child, const st
   return rows;
 }
 
-std::vector<Row> runTransport(wire::TransportOptions::Kind kind, EchoChild& child, const Options& options) {
+std::vector<Row> runTransport(wire::TransportOptions::Kind kind, EchoChild& child, const Options& options,
+                              Placement placement) {
   const std::string transport = kind == wire::TransportOptions::Kind::ipc ? "ipc" : "tcp";
+  // Packed: this process is already on its one CPU (main). The peer's main
+  // thread follows before it learns the endpoint, so the I/O thread its
+  // ZeroMQ context starts then inherits the CPU.
+  if (placement == Placement::packed) cosim::util::restrictThreadsOf(child.pid(), cosim::util::allowedCpus());
   TempRunDir runDir;
   wire::TransportOptions t;
   t.kind = kind;
@@ -616,10 +631,44 @@ std::vector<Row> runTransport(wire::TransportOptions::Kind kind, EchoChild& chil
       throw std::runtime_error("expected 'hello', got '" + wire::bodyName(hello.envelope()) + "'");
     std::uint64_t seq = 0;
     rows = runCases(router, child, transport, options, seq);
+    for (auto& r : rows) r.placement = placement;
     shutdownPeer(router, child, ++seq);
     wire::removeIpcEndpoint(router.endpoint());
   }
   return rows;
+}
+
+/// The kernel's own floor for a small round trip between two processes: an
+/// 8-byte ping-pong over a Unix socketpair, no ZeroMQ. On a VM an idle vCPU
+/// halts, and waking it costs more than the wire's own work; this says how
+/// much of a small round trip is that. Median microseconds.
+double socketpairFloorUs(int trips) {
+  int sv[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) throw std::runtime_error("socketpair failed");
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("fork failed");
+  char byte[8] = {};
+  if (pid == 0) {  // no ZeroMQ here: read/write and _exit only
+    ::close(sv[0]);
+    while (::read(sv[1], byte, sizeof byte) == static_cast<ssize_t>(sizeof byte))
+      if (::write(sv[1], byte, sizeof byte) != static_cast<ssize_t>(sizeof byte)) break;
+    ::_exit(0);
+  }
+  ::close(sv[1]);
+  std::vector<double> us;
+  for (int i = 0; i < trips; ++i) {
+    const auto t0 = Clock::now();
+    if (::write(sv[0], byte, sizeof byte) != static_cast<ssize_t>(sizeof byte) ||
+        ::read(sv[0], byte, sizeof byte) != static_cast<ssize_t>(sizeof byte))
+      break;
+    us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+  }
+  ::close(sv[0]);
+  ::waitpid(pid, nullptr, 0);
+  if (us.empty()) throw std::runtime_error("socketpair ping-pong failed");
+  std::sort(us.begin(), us.end());
+  return percentile(us, 0.5);
 }
 
 // ------------------------------------------------------------------ report
@@ -634,10 +683,15 @@ std::string sizeLabel(std::size_t bytes) {
 double gbps(const Row& r) { return 2.0 * static_cast<double>(r.bytes) / (r.medianUs * 1e-6) / 1e9; }
 
 /// The row's target as text and whether it is met; empty text when none applies.
+std::string placementName(Placement p) { return p == Placement::packed ? "packed" : "spread"; }
+
+/// The row's target as text and whether it is met; empty text when none
+/// applies. Both targets are judged on ipc, the default transport; tcp rows
+/// are printed for comparison.
 std::pair<std::string, bool> target(const Row& r) {
   std::ostringstream s;
-  if (r.transport != "ipc" && r.transport != "tcp") return {"", true};  // experiment arms are not judged
-  if (r.transport == "ipc" && r.bytes <= kSmallMaxBytes) {
+  if (r.transport != "ipc") return {"", true};  // tcp and experiment arms are not judged
+  if (r.bytes <= kSmallMaxBytes) {
     s << "median <= " << kSmallIpcMedianUs << " us";
     return {s.str(), r.medianUs <= kSmallIpcMedianUs};
   }
@@ -655,28 +709,30 @@ std::string loadAverage() {
   return a + " " + b + " " + c;
 }
 
-bool printTable(const std::vector<Row>& rows) {
-  bool allMet = true;
-  std::cout << std::left << std::setw(10) << "transport" << std::right << std::setw(9) << "payload"
-            << std::setw(8) << "trips" << std::setw(12) << "median us" << std::setw(11) << "p10 us"
-            << std::setw(11) << "p90 us" << std::setw(10) << "GB/s" << std::setw(10) << "build us" << std::setw(12)
-            << "stream GB/s" << "   target\n";
+/// Prints the table; returns, per placement measured, whether its rows meet every target.
+std::map<Placement, bool> printTable(const std::vector<Row>& rows) {
+  std::map<Placement, bool> allMet;
+  std::cout << std::left << std::setw(10) << "transport" << std::setw(10) << "placement" << std::right
+            << std::setw(9) << "payload" << std::setw(8) << "trips" << std::setw(12) << "median us" << std::setw(11)
+            << "p10 us" << std::setw(11) << "p90 us" << std::setw(10) << "GB/s" << std::setw(10) << "build us"
+            << std::setw(12) << "stream GB/s" << "   target\n";
   for (const auto& r : rows) {
     const auto [what, met] = target(r);
     std::ostringstream tp;
     if (r.bytes > 0) tp << std::fixed << std::setprecision(3) << gbps(r);
     else tp << "-";
-    std::cout << std::left << std::setw(10) << r.transport << std::right << std::setw(9) << sizeLabel(r.bytes)
-              << std::setw(8) << r.roundTrips << std::fixed << std::setprecision(1) << std::setw(12) << r.medianUs
-              << std::setw(11) << r.p10Us << std::setw(11) << r.p90Us << std::setw(10) << tp.str() << std::setw(10)
-              << r.buildUs;
+    std::cout << std::left << std::setw(10) << r.transport << std::setw(10) << placementName(r.placement)
+              << std::right << std::setw(9) << sizeLabel(r.bytes) << std::setw(8) << r.roundTrips << std::fixed
+              << std::setprecision(1) << std::setw(12) << r.medianUs << std::setw(11) << r.p10Us << std::setw(11)
+              << r.p90Us << std::setw(10) << tp.str() << std::setw(10) << r.buildUs;
     std::ostringstream st;
     if (r.streamGBps > 0) st << std::fixed << std::setprecision(3) << r.streamGBps;
     else st << "-";
     std::cout << std::setw(12) << st.str();
     if (!what.empty()) std::cout << "   " << what << ": " << (met ? "met" : "MISSED");
     std::cout << "\n";
-    allMet = allMet && met;
+    allMet.try_emplace(r.placement, true);
+    allMet[r.placement] = allMet[r.placement] && met;
   }
   return allMet;
 }
@@ -687,15 +743,27 @@ Options parse(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "--quick") o.quick = true;
     else if (a == "--require-targets") o.requireTargets = true;
+    else if (a == "--placement" && i + 1 < argc) {
+      const std::string p = argv[++i];
+      if (p == "spread") o.placements = {Placement::spread};
+      else if (p == "packed") o.placements = {Placement::packed};
+      else if (p == "both") o.placements = {Placement::spread, Placement::packed};
+      else throw std::invalid_argument("--placement takes 'spread', 'packed' or 'both', not '" + p + "'");
+    }
     else if (a == "--experiment" && i + 1 < argc) {
       o.experiment = argv[++i];
       if (o.experiment != "heap" && o.experiment != "floor")
         throw std::invalid_argument("--experiment takes 'heap' or 'floor', not '" + o.experiment + "'");
     }
     else if (a == "--help" || a == "-h") {
-      std::cout << "usage: wire_bench [--quick] [--require-targets] [--experiment heap|floor]\n"
+      std::cout << "usage: wire_bench [--quick] [--require-targets] [--placement spread|packed|both]\n"
+                   "                  [--experiment heap|floor]\n"
                    "  --quick            a tenth of the round trips\n"
-                   "  --require-targets  exit 2 when a target is missed\n"
+                   "  --require-targets  exit 2 unless one placement meets every target\n"
+                   "  --placement P      spread: where the OS puts the processes; packed: the parent\n"
+                   "                     and its peer (all threads) on one CPU, as a scene's\n"
+                   "                     `placement: {processes: packed}`; both (default): one after\n"
+                   "                     the other\n"
                    "  --experiment heap  instead of the table, interleaved in blocks: large buffers\n"
                    "                     on fresh pages (glibc's start thresholds) against buffers\n"
                    "                     kept on the heap (mallopt), 1, 16 and 64 MiB\n"
@@ -715,34 +783,61 @@ int main(int argc, char** argv) {
   try {
     const Options options = parse(argc, argv);
     wire::keepLargeBuffersOnHeap();  // as the coupler and every solver do (inherited by the peers)
-    // Both peers are forked before this process creates its ZeroMQ context.
+    // Every peer (ipc and tcp, per placement) is forked before this process
+    // creates its ZeroMQ context.
     std::vector<EchoChild> children;
-    children.push_back(EchoChild::fork({}));
-    children.push_back(EchoChild::fork({children[0].writeFd()}));
+    std::vector<int> pipes;
+    for (std::size_t i = 0; i < 2 * options.placements.size(); ++i) {
+      children.push_back(EchoChild::fork(pipes));
+      pipes.push_back(children.back().writeFd());
+    }
     // A peer that died before reading its endpoint must fail the run with a
     // message, not kill this process with SIGPIPE.
     std::signal(SIGPIPE, SIG_IGN);
 
-    std::cout << "wire_bench: ROUTER (this process, pid " << ::getpid() << ") <-> DEALER echo peers (pids "
-              << children[0].pid() << ", " << children[1].pid() << ")\n"
+    std::cout << "wire_bench: ROUTER (this process, pid " << ::getpid() << ") <-> DEALER echo peers (forked)\n"
               << "round trip = build request + send + peer decode/echo/send + receive + decode; "
               << "GB/s = 2 x payload / median (1 GB = 1e9 B)\n"
               << "stream GB/s = one-way payload throughput, requests built and sent back to back with "
               << kStreamWindow << " in flight, each decoded and acknowledged by the peer\n"
+              << "placement spread: where the OS puts the processes; packed: this process and the peer, every "
+                 "thread, on one CPU\n"
               << "load average before: " << loadAverage() << "; " << std::thread::hardware_concurrency()
               << " hardware threads" << (options.quick ? "; --quick" : "")
               << (options.experiment.empty() ? "" : "; --experiment " + options.experiment)
               << "\n"
               << "build us = median time the parent spends building the request (allocation + payload copy)\n\n";
-    std::vector<Row> rows = runTransport(wire::TransportOptions::Kind::ipc, children[0], options);
-    const auto tcpRows = runTransport(wire::TransportOptions::Kind::tcp, children[1], options);
-    rows.insert(rows.end(), tcpRows.begin(), tcpRows.end());
+    std::vector<Row> rows;
+    std::map<Placement, double> floorUs;
+    for (std::size_t p = 0; p < options.placements.size(); ++p) {
+      const auto placement = options.placements[p];
+      if (placement == Placement::packed) cosim::util::restrictProcessTo({cosim::util::currentCpu()});
+      floorUs[placement] = socketpairFloorUs(options.quick ? 200 : 2000);
+      for (const auto kind : {wire::TransportOptions::Kind::ipc, wire::TransportOptions::Kind::tcp}) {
+        auto more = runTransport(kind, children[2 * p + (kind == wire::TransportOptions::Kind::tcp ? 1 : 0)],
+                                 options, placement);
+        rows.insert(rows.end(), more.begin(), more.end());
+      }
+    }
 
-    const bool allMet = printTable(rows);
-    std::cout << "\nload average after: " << loadAverage() << "\n"
-              << "targets: " << (!options.experiment.empty() ? "not judged in experiments" : allMet ? "all met" : "some MISSED")
-              << "\n";
-    return options.requireTargets && !allMet ? 2 : 0;
+    const auto allMet = printTable(rows);
+    std::cout << "\nkernel floor, 8-byte socketpair ping-pong without ZeroMQ, median:";
+    for (const auto& [placement, us] : floorUs)
+      std::cout << " " << placementName(placement) << " " << std::fixed << std::setprecision(1) << us << " us";
+    std::cout << "\nload average after: " << loadAverage() << "\n";
+    bool anyMet = false;
+    if (!options.experiment.empty()) {
+      std::cout << "targets: not judged in experiments\n";
+    } else {
+      std::cout << "targets (ipc: " << sizeLabel(kSmallMaxBytes) << " and less, median <= " << kSmallIpcMedianUs
+                << " us; " << sizeLabel(kBulkMinBytes) << ", >= " << kBulkGBps << " GB/s):";
+      for (const auto& [placement, met] : allMet) {
+        std::cout << " " << placementName(placement) << " " << (met ? "all met" : "some MISSED");
+        anyMet = anyMet || met;
+      }
+      std::cout << "\n";
+    }
+    return options.requireTargets && options.experiment.empty() && !anyMet ? 2 : 0;
   } catch (const std::exception& e) {
     std::cerr << "wire_bench: " << e.what() << "\n";
     return 1;

@@ -1,4 +1,5 @@
 #include "cosim/wire/arrays.hpp"
+#include "cosim/wire/segment_pool.hpp"
 
 #include <capnp/any.h>
 
@@ -40,7 +41,12 @@ void addArray(capnp::List<proto::NamedArray>::Builder arrays, unsigned index, st
   auto a = arrays[index];
   a.setName(kj::StringPtr(std::string(name).c_str()));
   a.setComponents(components);
-  auto dst = view(a.initValues(static_cast<unsigned>(values.size())));
+  std::span<double> dst;
+  {
+    // Every word of the list is written below, so a large one may take an unzeroed segment.
+    PooledMessageBuilder::PayloadScope payload(values.size());
+    dst = view(a.initValues(static_cast<unsigned>(values.size())));
+  }
   if (!values.empty()) std::memcpy(dst.data(), values.data(), values.size_bytes());
 }
 

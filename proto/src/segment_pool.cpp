@@ -14,11 +14,18 @@ constexpr std::size_t kProcessPoolBytes = std::size_t{256} << 20;
 // Cap'n Proto addresses a segment with 29-bit word offsets.
 constexpr std::size_t kMaxSegmentWords = (std::size_t{1} << 29) - 1;
 
-capnp::word* allocateZeroed(std::size_t words) {
-  void* p = std::calloc(words, sizeof(capnp::word));
+// Cap'n Proto's structures go to the first segment; a payload bigger than
+// this goes to its own segment (see PayloadScope).
+constexpr std::size_t kMaxFirstSegmentWords = PooledMessageBuilder::kOwnSegmentWords;
+
+capnp::word* allocateWords(std::size_t words, bool zeroed) {
+  void* p = zeroed ? std::calloc(words, sizeof(capnp::word)) : std::malloc(words * sizeof(capnp::word));
   if (p == nullptr) throw std::bad_alloc();
   return static_cast<capnp::word*>(p);
 }
+
+// The payload announced on this thread (PayloadScope): its list's words, 0 for none.
+thread_local std::size_t t_payloadWords = 0;
 
 }  // namespace
 
@@ -34,24 +41,34 @@ SegmentPool::~SegmentPool() {
   for (auto& s : free_) std::free(s.words);
 }
 
-SegmentPool::Segment SegmentPool::acquire(std::size_t words) {
-  if (words >= kMinPooledWords) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    // The smallest kept segment that fits without wasting more than half.
-    auto best = free_.end();
-    for (auto it = free_.begin(); it != free_.end(); ++it)
-      if (it->capacity >= words && it->capacity <= 2 * words && (best == free_.end() || it->capacity < best->capacity))
-        best = it;
-    if (best != free_.end()) {
-      const Segment s = *best;
-      free_.erase(best);
-      freeBytes_ -= s.capacity * sizeof(capnp::word);
-      ++reused_;
-      return s;
-    }
+std::optional<SegmentPool::Segment> SegmentPool::takeFitting(std::size_t words, bool payload) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto best = free_.end();
+  for (auto it = free_.begin(); it != free_.end(); ++it)
+    if (it->payload == payload && it->capacity >= words && it->capacity <= 2 * words &&
+        (best == free_.end() || it->capacity < best->capacity))
+      best = it;
+  if (best == free_.end()) {
     ++allocated_;
+    return std::nullopt;
   }
-  return {allocateZeroed(words), words};
+  const Segment s = *best;
+  free_.erase(best);
+  freeBytes_ -= s.capacity * sizeof(capnp::word);
+  ++reused_;
+  return s;
+}
+
+SegmentPool::Segment SegmentPool::acquire(std::size_t words) {
+  if (words >= kMinPooledWords)
+    if (auto s = takeFitting(words, false)) return *s;
+  return {allocateWords(words, true), words, false};
+}
+
+SegmentPool::Segment SegmentPool::acquireForPayload(std::size_t words) {
+  if (words >= kMinPooledWords)
+    if (auto s = takeFitting(words, true)) return *s;
+  return {allocateWords(words, false), words, true};
 }
 
 void SegmentPool::release(Segment segment, std::size_t usedWords) {
@@ -59,7 +76,7 @@ void SegmentPool::release(Segment segment, std::size_t usedWords) {
   const std::size_t bytes = segment.capacity * sizeof(capnp::word);
   if (segment.capacity >= kMinPooledWords) {
     // Zero outside the lock: this is the work the next sender no longer does.
-    std::memset(segment.words, 0, std::min(usedWords, segment.capacity) * sizeof(capnp::word));
+    if (!segment.payload) std::memset(segment.words, 0, std::min(usedWords, segment.capacity) * sizeof(capnp::word));
     std::lock_guard<std::mutex> lock(mutex_);
     if (freeBytes_ + bytes <= maxFreeBytes_) {
       free_.push_back(segment);
@@ -76,7 +93,10 @@ SegmentPool::Stats SegmentPool::stats() const {
 }
 
 PooledMessageBuilder::PooledMessageBuilder(std::size_t firstSegmentWords, SegmentPool& pool)
-    : pool_(pool), nextWords_(std::max<std::size_t>(firstSegmentWords, 64)) {}
+    : pool_(pool), nextWords_(std::clamp<std::size_t>(firstSegmentWords, 64, kMaxFirstSegmentWords)) {}
+
+PooledMessageBuilder::PayloadScope::PayloadScope(std::size_t words) { t_payloadWords = words; }
+PooledMessageBuilder::PayloadScope::~PayloadScope() { t_payloadWords = 0; }
 
 PooledMessageBuilder::~PooledMessageBuilder() {
   // What the arena wrote into each segment; the rest is still zero.
@@ -90,6 +110,12 @@ PooledMessageBuilder::~PooledMessageBuilder() {
 }
 
 kj::ArrayPtr<capnp::word> PooledMessageBuilder::allocateSegment(unsigned minimumSize) {
+  // The announced payload's list plus the one-word landing pad of the far
+  // pointer to it (Cap'n Proto writes that word, the caller every other).
+  if (t_payloadWords >= kOwnSegmentWords && minimumSize == t_payloadWords + 1) {
+    segments_.push_back(pool_.acquireForPayload(minimumSize));
+    return {segments_.back().words, minimumSize};
+  }
   const std::size_t words = std::max<std::size_t>(minimumSize, nextWords_);
   // Grow like Cap'n Proto's own builder: each new segment as large as all before.
   nextWords_ += words;

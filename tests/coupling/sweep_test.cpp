@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cosim/coupler/sweep/sweep.hpp"
+#include "cosim/util/cpu_affinity.hpp"
 #include "subprocess.hpp"
 
 namespace fs = std::filesystem;
@@ -237,6 +238,27 @@ TEST(SweepRun, TwoTimeStepsGiveTwoRowsAndTwoRunDirectories) {
     EXPECT_TRUE(isPng(out / "error_vs_walltime.png")) << result.err;
     EXPECT_TRUE(isPng(out / "walltime_vs_schedule.dt.png")) << result.err;
     EXPECT_NE(result.out.find("plot: "), std::string::npos) << result.out;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(SweepRun, PackedRunsStartedTogetherGetACpuEach) {
+  const auto dir = cosim::testing::freshDirectory("sweep-packed");
+  const auto scene = dir / "packed.yaml";
+  {
+    std::ofstream f(scene);
+    f << readText(demoScene()) << "placement: {processes: packed}\n";
+  }
+  const auto out = dir / "sweep";
+  const auto result =
+      sweep({scene.string(), "--set", "schedule.dt=1e-3,2e-3", "--out", out.string(), "--jobs", "2"});
+  ASSERT_EQ(result.code, 0) << result.out << result.err;
+  const auto allowed = cosim::util::allowedCpus();
+  const std::vector<std::string> values{"1e-3", "2e-3"};
+  for (std::size_t slot = 0; slot < 2; ++slot) {
+    const auto report = readText(out / (std::to_string(slot) + "_schedule.dt=" + values[slot]) / "run_report.json");
+    const auto cpu = std::to_string(allowed[slot % allowed.size()]);
+    EXPECT_NE(report.find("\"placement\": \"packed on CPUs [" + cpu + "]\""), std::string::npos) << report;
   }
   fs::remove_all(dir);
 }

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/cpu_affinity.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/sockets.hpp"
 #include "mock_pattern.hpp"
@@ -32,6 +33,7 @@ struct SceneOptions {
   std::string schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 100}";
   std::string transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 30}";
   std::string outputExtra;  // more keys under output:, e.g. "checkpoint_interval: 50"
+  std::string placement;    // the placement: map, when set
 };
 
 class CouplerRun : public ::testing::Test {
@@ -48,6 +50,7 @@ class CouplerRun : public ::testing::Test {
     f << "scene: it\n"
       << "schedule: " << o.schedule << "\n"
       << "transport: " << o.transport << "\n"
+      << (o.placement.empty() ? "" : "placement: " + o.placement + "\n")
       << "solvers:\n"
       << "  - name: left\n    kind: mock\n    params: " << o.left << "\n"
       << (o.leftExtra.empty() ? "" : "    " + o.leftExtra + "\n")
@@ -114,6 +117,34 @@ TEST_F(CouplerRun, ThousandExchangesAreBitForBit) {
   EXPECT_EQ(r["peers"].size(), 2u);
   EXPECT_GT(r["peers"][0]["bytes_sent"].get<double>(), 1000 * 1000 * 8.0);
   EXPECT_NE(f.out.find("run report: scene 'it' completed"), std::string::npos) << f.out;
+}
+
+TEST_F(CouplerRun, PackedPlacementPutsEveryStartedPeerOnTheNamedCpu) {
+  const auto allowed = util::allowedCpus();
+  const int cpu = allowed.back();  // not necessarily the one this test runs on
+  const std::string expected = "[" + std::to_string(cpu) + "]";
+  SceneOptions o;
+  o.placement = "{processes: packed, cpus: " + expected + "}";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const auto r = report();
+  EXPECT_EQ(r["placement"], "packed on CPUs " + expected);
+  ASSERT_EQ(r["peers"].size(), 2u);
+  for (const auto& p : r["peers"]) EXPECT_EQ(p["cpus"], expected) << p["name"];
+  // Spread (the default) leaves every peer the whole machine.
+  const auto spread = runCoupler(SceneOptions{});
+  ASSERT_EQ(spread.code, 0) << spread.err;
+  EXPECT_EQ(report()["placement"], "spread");
+  for (const auto& p : report()["peers"]) EXPECT_EQ(p["cpus"], util::describeCpus(allowed)) << p["name"];
+}
+
+TEST_F(CouplerRun, PackedPlacementOnACpuThisMachineLacksIsRefusedBeforeStart) {
+  SceneOptions o;
+  o.placement = "{processes: packed, cpus: [1023]}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 2) << f.err;
+  EXPECT_NE(f.err.find("placement.cpus: CPU 1023 is not one this process may use"), std::string::npos) << f.err;
+  EXPECT_EQ(report()["peers"].size(), 0u) << "nothing was started";
 }
 
 TEST_F(CouplerRun, KilledPeerIsNamedAndOutputStaysReadable) {

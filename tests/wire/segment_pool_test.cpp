@@ -1,9 +1,13 @@
 // The segment pool hands out zeroed segments, reuses what came back, and a
 // message built into a reused (previously dirty) segment reads exactly as one
-// built into fresh memory: Cap'n Proto relies on unset fields being zero.
+// built into fresh memory: Cap'n Proto relies on unset fields being zero. A
+// large payload goes to an unzeroed segment of its own, and such a segment is
+// never lent for Cap'n Proto's structures.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <capnp/serialize.h>
+#include <memory>
 #include <vector>
 
 #include "cosim/wire/arrays.hpp"
@@ -71,7 +75,8 @@ TEST(SegmentPool, MessageInReusedSegmentReadsAsFresh) {
     advance.setDt(0.25);
     addArray(advance.initInputs().initArrays(1), 0, "payload", 1, payload);
   }
-  EXPECT_EQ(pool.stats().freeSegments, 1u);
+  // The structures' first segment (capped) and the payload's own segment.
+  EXPECT_EQ(pool.stats().freeSegments, 2u);
   PooledMessageBuilder reused(kBig, pool);
   auto env = reused.getRoot<proto::Envelope>();  // the first segment is taken here
   EXPECT_EQ(pool.stats().reused, 1u);
@@ -82,6 +87,49 @@ TEST(SegmentPool, MessageInReusedSegmentReadsAsFresh) {
   EXPECT_EQ(reader.getBody().getAdvance().getDt(), 0.0);
   EXPECT_EQ(reader.getBody().getAdvance().getSteps(), 2u);
   EXPECT_FALSE(reader.getBody().getAdvance().hasInputs());
+}
+
+TEST(SegmentPool, LargePayloadTakesAnUnzeroedSegmentOfItsOwn) {
+  SegmentPool pool(std::size_t{64} << 20);
+  std::vector<double> payload(kBig, 0.0);
+  const capnp::word* payloadWords = nullptr;
+  for (int round = 0; round < 3; ++round) {
+    for (std::size_t i = 0; i < payload.size(); ++i) payload[i] = static_cast<double>(i) * (round + 1) - 0.5;
+    auto builder = std::make_unique<PooledMessageBuilder>(kBig + 256, pool);
+    builder->getRoot<proto::Envelope>().setSeq(static_cast<std::uint64_t>(round) + 1);
+    addArray(builder->getRoot<proto::Envelope>().getBody().initAdvance().initInputs().initArrays(1), 0, "p", 1,
+             payload);
+    const auto segments = builder->getSegmentsForOutput();
+    ASSERT_EQ(segments.size(), 2u) << "structures, then the payload with its landing pad";
+    EXPECT_EQ(segments[1].size(), payload.size() + 1);
+    if (round > 0) {
+      EXPECT_EQ(segments[1].begin(), payloadWords) << "the payload segment came back and was reused";
+    }
+    payloadWords = segments[1].begin();
+    // Read back through a flat copy, as a receiver would.
+    const auto flat = capnp::messageToFlatArray(*builder);
+    capnp::FlatArrayMessageReader reader(flat);
+    const auto env = reader.getRoot<proto::Envelope>();
+    EXPECT_EQ(env.getSeq(), static_cast<std::uint64_t>(round) + 1);
+    const auto values = view(env.getBody().getAdvance().getInputs().getArrays()[0].getValues());
+    ASSERT_EQ(values.size(), payload.size());
+    EXPECT_TRUE(std::equal(values.begin(), values.end(), payload.begin()));
+    builder.reset();
+    // A message of structures only after it: never built into the dirty payload segment.
+    PooledMessageBuilder structures(kBig * 2, pool);
+    auto advance = structures.getRoot<proto::Envelope>().getBody().initAdvance();
+    EXPECT_EQ(advance.asReader().getDt(), 0.0);
+    EXPECT_FALSE(advance.asReader().hasInputs());
+    for (const auto& seg : structures.getSegmentsForOutput()) EXPECT_NE(seg.begin(), payloadWords);
+  }
+}
+
+TEST(SegmentPool, AnnouncedPayloadThatFitsStaysInTheStructuresSegment) {
+  SegmentPool pool(std::size_t{64} << 20);
+  std::vector<double> small(100, 1.25);
+  PooledMessageBuilder builder(1024, pool);
+  addArray(builder.getRoot<proto::Envelope>().getBody().initAdvance().initInputs().initArrays(1), 0, "p", 1, small);
+  EXPECT_EQ(builder.getSegmentsForOutput().size(), 1u);
 }
 
 TEST(SegmentPool, OutMessagesRoundTripThroughReusedSegments) {

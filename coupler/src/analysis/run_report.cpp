@@ -16,6 +16,7 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
   j["message"] = message;
   j["exit_code"] = exitCode;
   j["schedule"] = schedule;
+  j["placement"] = placement;
   j["exchanges"] = exchanges;
   j["planned_exchanges"] = plannedExchanges;
   j["simulated_time_s"] = simulatedTime;
@@ -28,7 +29,7 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
                           {"compute_s", p.computeS}, {"communication_s", p.communicationS},
                           {"messages_sent", p.messagesSent}, {"messages_received", p.messagesReceived},
                           {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
-                          {"critical_dt_s", p.criticalDt}});
+                          {"critical_dt_s", p.criticalDt}, {"cpus", p.cpus}});
   j["final_energies_J"] = finalEnergies;
   j["coupling_overhead_share"] = couplingOverheadShare();
   j["errors"] = nlohmann::json::array();
@@ -52,6 +53,7 @@ std::string RunReport::text() const {
   s << "run report: scene '" << scene << "' " << status;
   if (!message.empty()) s << ": " << message;
   s << "\n  schedule      " << schedule << "\n";
+  s << "  placement     " << placement << "\n";
   s << "  exchanges     " << exchanges << " of " << plannedExchanges << ", simulated t = " << std::setprecision(6)
     << simulatedTime << " s of " << endTime << " s\n" << std::setprecision(3);
   s << "  wall time     " << wallS << " s (startup " << startupS << " s, exchange loop " << loopS << " s)\n";
@@ -62,7 +64,8 @@ std::string RunReport::text() const {
     s << "  " << std::left << std::setw(13) << p.name << std::right << " compute " << p.computeS << " s ("
       << 100.0 * p.computeS / loop << " %), communication " << p.communicationS << " s ("
       << 100.0 * p.communicationS / loop << " %), " << p.messagesSent << " requests, "
-      << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved\n";
+      << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved" << (p.cpus.empty() ? "" : ", CPUs " + p.cpus)
+      << "\n";
   s << "  overhead      communication + mapping = " << 100.0 * couplingOverheadShare() << " % of the exchange loop\n";
   for (const auto& e : errors)
     s << "  error         " << e.name << " = " << std::setprecision(6) << e.value << " " << e.unit << " (against "

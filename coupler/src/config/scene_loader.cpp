@@ -1,3 +1,4 @@
+#include <sched.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -176,6 +177,42 @@ void readSchedule(MapReader& root, Scene& scene) {
   m.finish();
 }
 
+void readPlacement(MapReader& root, Scene& scene) {
+  if (!root.has("placement")) {
+    root.node("placement");
+    return;
+  }
+  MapReader m(root.node("placement"), "placement", root.diagnostics());
+  if (!m.valid()) return;
+  auto& p = scene.placement;
+  p.kind = m.choice("processes", {"spread", "packed"}, std::string("spread")) == "packed" ? PlacementSpec::Kind::packed
+                                                                                       : PlacementSpec::Kind::spread;
+  const bool hasCpus = m.has("cpus");
+  for (const auto& item : m.stringList("cpus")) {
+    std::size_t used = 0;
+    long cpu = -1;
+    try {
+      cpu = std::stol(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || cpu < 0 || cpu >= CPU_SETSIZE) {
+      m.error("cpus", "'" + item + "' is not a CPU number (0 to " + std::to_string(CPU_SETSIZE - 1) + ")");
+      continue;
+    }
+    if (std::find(p.cpus.begin(), p.cpus.end(), cpu) != p.cpus.end()) {
+      m.error("cpus", "CPU " + item + " is listed twice");
+      continue;
+    }
+    p.cpus.push_back(static_cast<int>(cpu));
+  }
+  if (hasCpus && p.kind != PlacementSpec::Kind::packed)
+    m.error("cpus", "applies to `processes: packed` only (spread leaves the placement to the OS)");
+  else if (hasCpus && p.cpus.empty())
+    m.error("cpus", "an empty list; leave it out to pack on the CPU the coupler starts on");
+  m.finish();
+}
+
 void readOutput(MapReader& root, Scene& scene) {
   scene.output.dir = "runs/" + scene.name;
   if (!root.has("output")) {
@@ -257,7 +294,7 @@ Scene loadSceneText(const std::string& text, const std::string& displayName, con
   const YAML::Node rootNode = config::loadYamlString(scene.text, displayName);
   Diagnostics diag(displayName);
   if (!rootNode.IsMap()) {
-    diag.error(rootNode.Mark(), "a scene is a map with keys scene, schedule, solvers, couplings, transport, output");
+    diag.error(rootNode.Mark(), "a scene is a map with keys scene, schedule, solvers, couplings, transport, output, placement");
     diag.throwIfAny();
   }
   MapReader root(rootNode, "", diag);
@@ -280,6 +317,7 @@ Scene loadSceneText(const std::string& text, const std::string& displayName, con
   readCouplings(root, scene);
   readAnalysis(root, scene);
   readOutput(root, scene);
+  readPlacement(root, scene);
   root.finish();
   diag.throwIfAny();
   return scene;

@@ -15,6 +15,7 @@
 #include "cosim/coupler/launch/process_group.hpp"
 #include "cosim/coupler/run/checkpoint_store.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/cpu_affinity.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/clock.hpp"
 #include "cosim/wire/log.hpp"
@@ -71,6 +72,7 @@ class CouplerRun final : public ExchangeDriver {
     const double start = monotonicSeconds();
     try {
       prepareOutput();
+      applyPlacement();
       startPeers();
       setUpPeers();
       report_.startupS = monotonicSeconds() - start;
@@ -219,6 +221,30 @@ class CouplerRun final : public ExchangeDriver {
     runCouplings({names_.begin(), names_.end()});
   }
 
+  /// Where a started peer may run, as the report shows it; what went wrong otherwise.
+  static std::string cpusOf(std::uint32_t pid) {
+    try {
+      return util::describeCpus(util::allowedCpusOf(static_cast<int>(pid)));
+    } catch (const std::exception& e) {
+      return std::string("unknown (") + e.what() + ")";
+    }
+  }
+
+  /// Before any socket or OpenMP team exists, so that the coupler's threads
+  /// and every solver it forks inherit the CPU set.
+  void applyPlacement() {
+    const auto& p = scene_.placement;
+    if (p.kind != PlacementSpec::Kind::packed) return;
+    const auto cpus = p.cpus.empty() ? std::vector<int>{util::currentCpu()} : p.cpus;
+    try {
+      util::restrictProcessTo(cpus);
+    } catch (const std::exception& e) {
+      throw config::ConfigError({scene_.file + ": placement.cpus: " + e.what()});
+    }
+    report_.placement = "packed on CPUs " + util::describeCpus(cpus);
+    log::info("placement: the coupler and the solvers it starts run on CPUs " + util::describeCpus(cpus));
+  }
+
   void startPeers() {
     endpoint_ = wire::bindEndpoint(scene_.transport, runDir_);
     std::optional<wire::CurveKeyPair> curve;
@@ -349,6 +375,7 @@ class CouplerRun final : public ExchangeDriver {
       p.kind = session_->info(s.name).kind;
       p.version = session_->info(s.name).version;
       p.criticalDt = critical[s.name];
+      if (s.launch == SolverSpec::Launch::spawn) p.cpus = cpusOf(session_->info(s.name).pid);
       timings_[s.name] = p;
     }
     if (resumeFrom_) return restoreFromCheckpoint();
@@ -504,6 +531,10 @@ void describeScene(const Scene& scene, std::ostream& out) {
   out << "scene '" << scene.name << "' (" << scene.file << ")\n";
   if (!scene.description.empty()) out << "  " << scene.description << "\n";
   out << "schedule: " << scene.schedule->describe() << "\n";
+  if (scene.placement.kind == PlacementSpec::Kind::packed)
+    out << "placement: packed, the coupler and the solvers it starts on CPUs "
+        << (scene.placement.cpus.empty() ? std::string("[the one the coupler starts on]") : util::describeCpus(scene.placement.cpus))
+        << "\n";
   out << "solvers:\n";
   for (const auto& s : scene.solvers) {
     out << "  " << s.name << " (" << s.kind << "): ";

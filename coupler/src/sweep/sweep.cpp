@@ -20,6 +20,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene_overrides.hpp"
 #include "cosim/coupler/launch/process_group.hpp"
+#include "cosim/util/cpu_affinity.hpp"
 #include "cosim/wire/clock.hpp"
 
 namespace cosim::coupler {
@@ -186,6 +187,7 @@ class Sweep {
 
   int run() {
     checkCombinations(options_, points_);
+    slotCpus_ = packingCpusPerSlot();
     fs::create_directories(outDir_);
     installStopSignalHandlers();
     std::cout << "sweep: " << points_.size() << " run(s) of " << options_.scenePath << " into " << outDir_.string()
@@ -205,7 +207,27 @@ class Sweep {
     pid_t pid = 0;
     std::size_t index = 0;
     double startedAt = 0.0;
+    std::size_t slot = 0;  // which of the `jobs` places it occupies
   };
+
+  /// A scene packed on "the CPU the coupler starts on" would let runs started
+  /// together land on one CPU: with more than one job, slot k packs on the
+  /// k-th allowed CPU instead (round robin). Empty: runs are left alone.
+  std::vector<int> packingCpusPerSlot() const {
+    if (options_.jobs < 2) return {};
+    const auto scene = loadSceneText(readSceneText(options_.scenePath), options_.scenePath,
+                                     fs::absolute(options_.scenePath).parent_path().string());
+    if (scene.placement.kind != PlacementSpec::Kind::packed || !scene.placement.cpus.empty()) return {};
+    const auto allowed = util::allowedCpus();
+    std::vector<int> cpus;
+    for (int k = 0; k < options_.jobs; ++k) cpus.push_back(allowed[static_cast<std::size_t>(k) % allowed.size()]);
+    return cpus;
+  }
+
+  std::size_t freeSlot() const {
+    for (std::size_t k = 0;; ++k)
+      if (std::none_of(running_.begin(), running_.end(), [k](const Running& r) { return r.slot == k; })) return k;
+  }
 
   fs::path csvPath() const { return outDir_ / "sweep.csv"; }
   fs::path runDir(std::size_t index) const { return outDir_ / runDirectoryName(index, points_.size(), points_[index]); }
@@ -230,9 +252,13 @@ class Sweep {
     fs::remove(dir / "run_report.json");  // a report left by an earlier sweep must not stand for this run
     std::vector<std::string> args{exe_.string(), "run", options_.scenePath, "--out", dir.string(), "--no-progress"};
     for (const auto& [key, value] : points_[index]) args.insert(args.end(), {"--set", key + "=" + value});
+    const auto slot = freeSlot();
+    const bool pointPlaces = std::any_of(points_[index].begin(), points_[index].end(),
+                                         [](const auto& kv) { return kv.first.rfind("placement", 0) == 0; });
+    if (!slotCpus_.empty() && !pointPlaces) args.insert(args.end(), {"--set", "placement.cpus=[" + std::to_string(slotCpus_[slot]) + "]"});
     if (options_.force) args.push_back("--force");
     const int log = openForWriting(dir / "coupler.log");
-    running_.push_back({startChild(args, log, log), index, monotonicSeconds()});
+    running_.push_back({startChild(args, log, log), index, monotonicSeconds(), slot});
   }
 
   bool reapFinished() {
@@ -269,6 +295,7 @@ class Sweep {
   fs::path exe_;
   fs::path outDir_;
   std::vector<Running> running_;
+  std::vector<int> slotCpus_;  // per job slot, for packed scenes (packingCpusPerSlot)
   std::vector<SweepRow> rows_;
 };
 

@@ -20,6 +20,7 @@ struct PeerTiming {
   std::uint64_t bytesSent = 0;
   std::uint64_t bytesReceived = 0;
   double criticalDt = 0.0;
+  std::string cpus;  // the CPUs a started peer may use, "[0]"; empty for an attached one
 };
 
 /// A scene's error against its reference (analytic formula or stored run):
@@ -39,6 +40,7 @@ struct RunReport {
   std::string message;
   int exitCode = 0;
   std::string schedule;
+  std::string placement = "spread";  // "spread", or "packed on CPUs [0]"
   std::uint64_t exchanges = 0;
   std::uint64_t plannedExchanges = 0;
   double simulatedTime = 0.0;

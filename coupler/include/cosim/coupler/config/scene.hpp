@@ -36,6 +36,16 @@ struct OutputSpec {
   std::vector<RecordSpec> record;  // solver arrays stored in /series every exchange
 };
 
+/// Where the run's processes may run (`placement:`). spread: where the OS puts
+/// them. packed: the coupler and every solver it starts share `cpus`, by default
+/// the one CPU the coupler starts on; for lockstep runs whose exchanges are
+/// short this replaces cross-CPU wake-ups by local switches (docs/protocol.md).
+/// Solvers started elsewhere (`launch: attach`) are not moved.
+struct PlacementSpec {
+  enum class Kind { spread, packed } kind = Kind::spread;
+  std::vector<int> cpus;  // packed: empty = the coupler's CPU at start
+};
+
 struct Scene {
   std::string file;
   std::string text;
@@ -49,6 +59,7 @@ struct Scene {
   std::unique_ptr<Schedule> schedule;
   std::unique_ptr<Reference> reference;  // `analysis:`; null when the scene names none
   OutputSpec output;
+  PlacementSpec placement;
 
   const SolverSpec* solver(const std::string& name) const;
   /// Capabilities the run needs from one solver (schedule, couplings, output, requires).
