@@ -12,6 +12,7 @@
 // that u_s = u_m + jump(t_{n+1}) holds exactly.
 #include "cosim/fem/time/integrator.hpp"
 #include <cmath>
+#include <cstring>
 
 #include "newton.hpp"
 
@@ -182,16 +183,24 @@ class Newmark final : public Integrator {
     kFree_ = free.matrix();
   }
 
-  /// f_int(u): the elements' internal force, or K_0 u in linear mode.
+  /// f_int(u): the elements' internal force, or K_0 u in linear mode. A step
+  /// ends with f_int of its final u (the converged residual) and the energies
+  /// ask for the same u again: linear mode keeps the last product and reuses
+  /// it when u is bitwise the same (comparing u costs far less than K_0 u).
   void internalForce(const std::vector<double>& u, std::vector<double>& f) const {
     if (!options_.linear) {
       ElementEnergy en;
       model_.internalForce(u, f, en);
       return;
     }
-    f.resize(u.size());
-    Eigen::Map<Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(f.size())) =
-        kFull_ * Eigen::Map<const Eigen::VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+    if (u.size() != lastU_.size() || std::memcmp(u.data(), lastU_.data(), u.size() * sizeof(double)) != 0) {
+      lastF_.resize(u.size());
+      // Row-major K_0: each row is a dot product, no scattered writes.
+      Eigen::Map<Eigen::VectorXd>(lastF_.data(), static_cast<Eigen::Index>(lastF_.size())) =
+          kFull_ * Eigen::Map<const Eigen::VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+      lastU_ = u;
+    }
+    f = lastF_;
   }
 
   /// R = M a + f_int - f_ext on the free dofs; scale = |M a| + |f_int| + |f_ext| over all dofs.
@@ -219,7 +228,9 @@ class Newmark final : public Integrator {
   }
 
   NewmarkOptions options_;
-  Eigen::SparseMatrix<double> kFull_, kFree_;  // linear mode: K_0 on all dofs and on the free ones
+  Eigen::SparseMatrix<double, Eigen::RowMajor> kFull_;  // linear mode: K_0 on all dofs (f_int, reactions)
+  Eigen::SparseMatrix<double> kFree_;                   // and on the free ones (the system matrix)
+  mutable std::vector<double> lastU_, lastF_;           // the last K_0 u and its u
   bool factorised_ = false;
   double factorisedDt_ = 0.0;
   SparseSystem A_, M_;
