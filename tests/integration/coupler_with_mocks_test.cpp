@@ -144,7 +144,12 @@ TEST_F(CouplerRun, PackedPlacementOnACpuThisMachineLacksIsRefusedBeforeStart) {
   const auto f = runCoupler(o);
   EXPECT_EQ(f.code, 2) << f.err;
   EXPECT_NE(f.err.find("placement.cpus: CPU 1023 is not one this process may use"), std::string::npos) << f.err;
-  EXPECT_EQ(report()["peers"].size(), 0u) << "nothing was started";
+  EXPECT_FALSE(fs::exists(runDir() / "coupler.h5")) << "refused while loading: nothing was started";
+  // `coupler check` says the same, starting nothing.
+  const auto check = run({binary("coupler"), "check", (dir_ / "scene.yaml").string()}, 30);
+  EXPECT_EQ(check.code, 2) << check.out << check.err;
+  EXPECT_NE(check.err.find("scene.yaml:"), std::string::npos) << check.err;
+  EXPECT_NE(check.err.find("placement.cpus: CPU 1023"), std::string::npos) << check.err;
 }
 
 TEST_F(CouplerRun, KilledPeerIsNamedAndOutputStaysReadable) {

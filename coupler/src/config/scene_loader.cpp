@@ -10,6 +10,7 @@
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene.hpp"
+#include "cosim/util/cpu_affinity.hpp"
 
 namespace cosim::coupler {
 namespace fs = std::filesystem;
@@ -202,6 +203,12 @@ void readPlacement(MapReader& root, Scene& scene) {
     }
     if (std::find(p.cpus.begin(), p.cpus.end(), cpu) != p.cpus.end()) {
       m.error("cpus", "CPU " + item + " is listed twice");
+      continue;
+    }
+    // Checked here so that `coupler check` says it too; the run checks again
+    // when it applies the placement (the affinity may change in between).
+    if (const auto allowed = util::allowedCpus(); std::find(allowed.begin(), allowed.end(), cpu) == allowed.end()) {
+      m.error("cpus", "CPU " + item + " is not one this process may use (allowed: " + util::describeCpus(allowed) + ")");
       continue;
     }
     p.cpus.push_back(static_cast<int>(cpu));
