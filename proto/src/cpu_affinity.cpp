@@ -15,14 +15,11 @@ namespace cosim::util {
 namespace {
 
 cpu_set_t maskOf(const std::vector<int>& cpus) {
-  const auto allowed = allowedCpus();
   cpu_set_t mask;
   CPU_ZERO(&mask);
   if (cpus.empty()) throw std::runtime_error("an empty CPU list");
   for (int c : cpus) {
-    if (!std::binary_search(allowed.begin(), allowed.end(), c))
-      throw std::runtime_error("CPU " + std::to_string(c) + " is not one this process may use (allowed: " +
-                               describeCpus(allowed) + ")");
+    requireAllowed(c);
     CPU_SET(c, &mask);
   }
   return mask;
@@ -53,6 +50,13 @@ std::vector<int> allowedCpusOf(int pid) {
   for (int c = 0; c < CPU_SETSIZE; ++c)
     if (CPU_ISSET(c, &mask)) cpus.push_back(c);
   return cpus;
+}
+
+void requireAllowed(int cpu) {
+  const auto allowed = allowedCpus();
+  if (!std::binary_search(allowed.begin(), allowed.end(), cpu))
+    throw std::runtime_error("CPU " + std::to_string(cpu) + " is not one this process may use (allowed: " +
+                             describeCpus(allowed) + ")");
 }
 
 int currentCpu() {

@@ -189,7 +189,8 @@ void readPlacement(MapReader& root, Scene& scene) {
   p.kind = m.choice("processes", {"spread", "packed"}, std::string("spread")) == "packed" ? PlacementSpec::Kind::packed
                                                                                        : PlacementSpec::Kind::spread;
   const bool hasCpus = m.has("cpus");
-  for (const auto& item : m.stringList("cpus")) {
+  const auto items = m.stringList("cpus");
+  for (const auto& item : items) {
     std::size_t used = 0;
     long cpu = -1;
     try {
@@ -207,15 +208,17 @@ void readPlacement(MapReader& root, Scene& scene) {
     }
     // Checked here so that `coupler check` says it too; the run checks again
     // when it applies the placement (the affinity may change in between).
-    if (const auto allowed = util::allowedCpus(); std::find(allowed.begin(), allowed.end(), cpu) == allowed.end()) {
-      m.error("cpus", "CPU " + item + " is not one this process may use (allowed: " + util::describeCpus(allowed) + ")");
+    try {
+      util::requireAllowed(static_cast<int>(cpu));
+    } catch (const std::runtime_error& e) {
+      m.error("cpus", e.what());
       continue;
     }
     p.cpus.push_back(static_cast<int>(cpu));
   }
   if (hasCpus && p.kind != PlacementSpec::Kind::packed)
     m.error("cpus", "applies to `processes: packed` only (spread leaves the placement to the OS)");
-  else if (hasCpus && p.cpus.empty())
+  else if (hasCpus && items.empty())
     m.error("cpus", "an empty list; leave it out to pack on the CPU the coupler starts on");
   m.finish();
 }

@@ -19,6 +19,10 @@ std::vector<int> allowedCpusOf(int pid);
 /// "[0, 2]": a CPU list as messages and reports write it.
 std::string describeCpus(const std::vector<int>& cpus);
 
+/// Throws std::runtime_error naming cpu and the allowed ones when this
+/// process may not run on it.
+void requireAllowed(int cpu);
+
 /// The CPU the calling thread runs on at this moment.
 int currentCpu();
 
