@@ -11,9 +11,15 @@ struct HybridParticles {
   velocities @4 :List(Float64);         # 3 per particle
   radii @5 :List(Float64);              # quasi-radius R = (3V / 4 pi)^(1/3), Hartmann Eq. 39
   horizons @6 :List(Float64);           # per body: pairs of one family closer than this are excluded
+  wantStiffness @7 :Bool;               # set by the coupler: return HybridForces.positions and .stiffness
 }
 
 struct HybridForces {
   ids @0 :List(UInt32);
   forces @1 :List(Float64);             # 3 per particle, total contact force on it
+  # The force's first-order dependence on the particle's own position, so a
+  # solver that sub-cycles with it can follow its motion instead of holding
+  # it: f(x) = forces - K (x - positions). Empty: hold the force.
+  positions @2 :List(Float64);          # 3 per particle, where `forces` was evaluated (interval mean)
+  stiffness @3 :List(Float64);          # 6 per particle, K = -df/dx: xx yy zz xy xz yz
 }

@@ -105,6 +105,27 @@ TEST(PdDemContactRun, MultirateBothWaysRoundAndStaggeredOrdersBalanceToo) {
   }
 }
 
+TEST(PdDemContactRun, LinearisedForcesRunAndAnUnknownTreatmentIsRefused) {
+  double lockstep = 0.0;
+  {
+    PdDemRun r;
+    ASSERT_EQ(r.run().code, 0);
+    lockstep = r.report()["figures"]["force_at_0.4mm_N"].get<double>();
+  }
+  // PD sub-cycles 4 steps per DEM step, following each contact force with the
+  // stiffness DEM sends (H2 at m = 6 needs this: held, it diverged).
+  PdDemRun r;
+  const auto done = r.run("{kind: multirate, fine: block, dt: 1.0e-5, ratio: 4, order: coarse-first, end_time: 8.0e-3}",
+                          {"couplings.contact.forces=linearised"});
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  checkBalance(r);
+  EXPECT_NEAR(r.report()["figures"]["force_at_0.4mm_N"].get<double>(), lockstep, 0.1 * lockstep);
+  PdDemRun bad;
+  const auto refused = bad.run("", {"couplings.contact.forces=interpolated"});
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE((refused.out + refused.err).find("forces"), std::string::npos) << refused.out << refused.err;
+}
+
 TEST(PdDemContactRun, CheckRefusesAMissingSolverName) {
   PdDemRun r;
   std::ifstream in(sourcePath("tests/coupling/pd_dem_short.yaml"));

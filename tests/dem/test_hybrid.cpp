@@ -63,7 +63,9 @@ struct Hybrids {
     std::copy(v.begin(), v.end(), wire::view(h.initVelocities(3 * n)).begin());
     for (double& r : wire::view(h.initRadii(n))) r = 0.01;
     wire::view(h.initHorizons(1))[0] = 0.015;
+    h.setWantStiffness(wantStiffness);
   }
+  bool wantStiffness = false;
 };
 
 struct DemRun {
@@ -98,6 +100,8 @@ TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
   const auto f = run.advance(steps, dt);
   ASSERT_EQ(f.getIds().size(), 5u);
   EXPECT_EQ(f.getIds()[2], 12u);
+  EXPECT_EQ(f.getStiffness().size(), 0u);  // not asked for
+  EXPECT_EQ(f.getPositions().size(), 0u);
 
   // The same interval one step at a time (each exchange sends the hybrid states
   // the driven motion reaches): the returned force must be the mean (impulse / interval).
@@ -147,6 +151,81 @@ TEST(HybridSpheresInDem, BadMessagesAreRefused) {
   nan.write(run.inputs);
   EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
 }
+
+
+// The stiffness sent with the forces (pd-dem-contact `forces: linearised`):
+// a small move delta of a hybrid particle pressed by a sphere and a plane
+// must change its force by -K delta to first order, normal and (sticking)
+// tangential parts alike; a frictionless contact has no tangential stiffness.
+// Measured: 3e-6 relative (second order in delta / overlap); leaving out the
+// geometric stiffness of the sphere pair (F_n / |d|) gives 1.7e-3.
+std::string stiffnessScene(double friction) {
+  return R"(scene: {name: t}
+solvers:
+  - name: particles
+    kind: dem
+    params:
+      contact: {normal: hertz, tangential: mindlin, damping: none}
+      materials:
+        - {name: grain, density: 1000, young: 1.0e7, poisson: 0.25, friction: )" +
+         std::to_string(friction) + R"(}
+        - {name: pd-surface, density: 1100, young: 2.0e7, poisson: 0.3, friction: )" +
+         std::to_string(friction) + R"(}
+      hybrid: {material: pd-surface}
+      overlap_tolerance: 0.2
+      particles:
+        - sphere: {position: [0.003, 0.002, 0.0195], radius: 0.01, material: grain, driven: true}
+      walls:
+        - {type: plane, point: [0, 0, -0.0098], normal: [0, 0.1, 1], material: grain}
+)";
+}
+
+class HybridStiffness : public ::testing::TestWithParam<double> {};
+
+TEST_P(HybridStiffness, PredictsTheForceChangeOfASmallMove) {
+  Hybrids h;
+  h.ids = {7};
+  h.x = {0, 0, 0};
+  h.v = {0, 0, 0};
+  h.wantStiffness = true;
+  DemSolver solver;
+  capnp::MallocMessageBuilder in, out;
+  auto inputs = in.initRoot<proto::CouplingData>();
+  h.write(inputs);
+  const std::string scene = stiffnessScene(GetParam());
+  solver.setup({"scene.yaml", scene, "particles", "", inputs.asReader()}, out.initRoot<proto::CouplingData>());
+  const double dt = 1e-6;
+  const auto step = [&](const Hybrids& state) {
+    state.write(inputs);
+    wire::AdvanceRequest r;
+    r.steps = 1;
+    r.dt = dt;
+    r.inputs = inputs.asReader();
+    solver.advance(r, out.initRoot<proto::CouplingData>());
+    return out.getRoot<proto::CouplingData>().asReader().getHybridForces()[0];
+  };
+  const auto f0 = step(h);
+  ASSERT_EQ(f0.getStiffness().size(), 6u);
+  ASSERT_EQ(f0.getPositions().size(), 3u);
+  const Vec3 force0 = forceOf(f0, 0);
+  ASSERT_GT(force0.z, 0.0);
+  const auto k = wire::view(f0.getStiffness());
+  const double kk[6] = {k[0], k[1], k[2], k[3], k[4], k[5]};
+  for (int d = 0; d < 3; ++d) EXPECT_EQ(wire::view(f0.getPositions())[d], h.x[d]);
+  // Move by delta over one step (driven velocity delta / dt): the tangential
+  // springs grow by the tangential part of delta, the overlaps by its normal part.
+  const Vec3 delta{2e-8, -1.5e-8, 3e-8};
+  Hybrids moved = h;
+  moved.v = {delta.x / dt, delta.y / dt, delta.z / dt};
+  const Vec3 change = forceOf(step(moved), 0) - force0;
+  const Vec3 predicted{-(kk[0] * delta.x + kk[3] * delta.y + kk[4] * delta.z),
+                       -(kk[3] * delta.x + kk[1] * delta.y + kk[5] * delta.z),
+                       -(kk[4] * delta.x + kk[5] * delta.y + kk[2] * delta.z)};
+  EXPECT_LT(norm(change - predicted), 1e-4 * norm(predicted)) << "change " << change.x << " " << change.y << " "
+                                                                 << change.z;
+}
+
+INSTANTIATE_TEST_SUITE_P(StickingAndFrictionless, HybridStiffness, ::testing::Values(1.0, 0.0));
 
 }  // namespace
 }  // namespace cosim::dem

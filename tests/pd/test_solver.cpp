@@ -184,6 +184,63 @@ TEST(PdSolverAdvance, InputsHeldOrInterpolatedOverSubSteps) {
   EXPECT_GT(e[2].second, 0.0);
 }
 
+// A force sent with its stiffness (pd-dem-contact `forces: linearised`)
+// follows its particle: after the sub-steps the external force of the particle
+// is F - K (x - x_F), evaluated at its end position; a correction that would
+// reverse the force leaves none (a contact cannot pull).
+void advanceLinearised(PdSolver& s, std::uint32_t steps, double dt, std::uint32_t id, const double (&f)[3],
+                       const double (&x)[3], const double (&k)[6]) {
+  capnp::MallocMessageBuilder in, out;
+  auto d = in.initRoot<CouplingData>();
+  auto h = d.initHybridForces(1)[0];
+  h.initIds(1).set(0, id);
+  auto fl = h.initForces(3);
+  auto xl = h.initPositions(3);
+  auto kl = h.initStiffness(6);
+  for (unsigned a = 0; a < 3; ++a) fl.set(a, f[a]), xl.set(a, x[a]);
+  for (unsigned a = 0; a < 6; ++a) kl.set(a, k[a]);
+  cosim::wire::AdvanceRequest req;
+  req.steps = steps;
+  req.dt = dt;
+  req.inputs = d.asReader();
+  s.advance(req, out.initRoot<CouplingData>());
+}
+
+TEST(PdSolverAdvance, LinearisedForcesFollowTheirParticle) {
+  Fixture run(scene());
+  const double dt = 0.5 * run.solver.criticalDt();
+  const auto id = run.out.getRoot<CouplingData>().asReader().getHybridParticles()[0].getIds()[0];
+  const auto& p = run.solver.system().particles();
+  const double x0[3] = {p.reference[3 * id], p.reference[3 * id + 1], p.reference[3 * id + 2]};
+  const double f[3] = {0.1, -0.2, 1.0};
+  const double k[6] = {1e4, 2e4, 3e4, 1e3, 2e3, 3e3};
+  advanceLinearised(run.solver, 8, dt, id, f, x0, k);
+  const double* u = &p.displacement[3 * id];
+  ASSERT_GT(u[2], 0.0);
+  const double expected[3] = {f[0] - (k[0] * u[0] + k[3] * u[1] + k[4] * u[2]),
+                              f[1] - (k[3] * u[0] + k[1] * u[1] + k[5] * u[2]),
+                              f[2] - (k[4] * u[0] + k[5] * u[1] + k[2] * u[2])};
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(p.externalForce[3 * id + a], expected[a], 1e-12) << a;
+  EXPECT_GT(std::abs(expected[2] - f[2]), 0.05);  // the correction is not negligible here
+  // Evaluated 1 mm below: following it would pull the particle back.
+  const double below[3] = {x0[0], x0[1], x0[2] - 1e-3};
+  advanceLinearised(run.solver, 1, dt, id, f, below, k);
+  for (int a = 0; a < 3; ++a) EXPECT_EQ(p.externalForce[3 * id + a], 0.0) << a;
+  // Stiffness of the wrong size is refused.
+  capnp::MallocMessageBuilder in, out;
+  auto d = in.initRoot<CouplingData>();
+  auto h = d.initHybridForces(1)[0];
+  h.initIds(1).set(0, id);
+  h.initForces(3);
+  h.initPositions(3);
+  h.initStiffness(5);
+  cosim::wire::AdvanceRequest req;
+  req.steps = 1;
+  req.dt = dt;
+  req.inputs = d.asReader();
+  EXPECT_THROW(run.solver.advance(req, out.initRoot<CouplingData>()), cosim::wire::SolverError);
+}
+
 TEST(PdSolverCheckpoint, RestoreContinuesBitForBit) {
   const auto dir = std::filesystem::temp_directory_path() / "pd_solver_ckpt";
   std::filesystem::create_directories(dir);

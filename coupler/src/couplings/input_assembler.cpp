@@ -30,7 +30,7 @@ std::size_t InputAssembler::words() const {
   for (const auto& h : hybridParticles_)
     w += h.ids.size() + h.referencePositions.size() + h.positions.size() + h.velocities.size() + h.radii.size() +
          h.horizons.size() + 32;
-  for (const auto& h : hybridForces_) w += h.ids.size() / 2 + h.forces.size() + 12;
+  for (const auto& h : hybridForces_) w += h.ids.size() / 2 + h.forces.size() + h.positions.size() + h.stiffness.size() + 16;
   return w;
 }
 
@@ -58,13 +58,18 @@ void InputAssembler::buildHybrid(proto::CouplingData::Builder data) const {
       copyInto(out.initVelocities(static_cast<unsigned>(h.velocities.size())), h.velocities);
       copyInto(out.initRadii(static_cast<unsigned>(h.radii.size())), h.radii);
       copyInto(out.initHorizons(static_cast<unsigned>(h.horizons.size())), h.horizons);
+      out.setWantStiffness(h.wantStiffness);
     }
   }
   if (!hybridForces_.empty()) {
     auto list = data.initHybridForces(static_cast<unsigned>(hybridForces_.size()));
     for (unsigned i = 0; i < hybridForces_.size(); ++i) {
-      copyInto(list[i].initIds(static_cast<unsigned>(hybridForces_[i].ids.size())), hybridForces_[i].ids);
-      copyInto(list[i].initForces(static_cast<unsigned>(hybridForces_[i].forces.size())), hybridForces_[i].forces);
+      const auto& h = hybridForces_[i];
+      copyInto(list[i].initIds(static_cast<unsigned>(h.ids.size())), h.ids);
+      copyInto(list[i].initForces(static_cast<unsigned>(h.forces.size())), h.forces);
+      if (h.stiffness.empty()) continue;
+      copyInto(list[i].initPositions(static_cast<unsigned>(h.positions.size())), h.positions);
+      copyInto(list[i].initStiffness(static_cast<unsigned>(h.stiffness.size())), h.stiffness);
     }
   }
 }

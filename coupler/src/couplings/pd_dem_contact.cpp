@@ -21,6 +21,16 @@
 //                 DEM takes one step over several PD steps, extrapolating PD's
 //                 surface velocity (which carries its fastest modes) over the
 //                 whole interval can feed energy back into them.
+//
+// Contact forces over PD's sub-steps (key `forces`):
+//   held:       PD applies DEM's force unchanged over all its sub-steps (Hartmann
+//               Alg. 2). A held contact spring is integrated with the coarse
+//               step while the particle moves with the fine one, which adds
+//               energy each coarse step (H2 at m = 6 diverged).
+//   linearised: DEM also sends, per hybrid particle, where the force was
+//               evaluated and K = -df/dx summed over its contacts; PD applies
+//               f = F - K (x - x_F) at every sub-step (clamped so it never
+//               reverses), so the contact stiffness is integrated with PD's step.
 #include <ostream>
 #include <stdexcept>
 
@@ -44,6 +54,10 @@ class PdDemContact final : public Coupling {
     if (kinematics != "extrapolated" && kinematics != "held")
       m.error("kinematics", "must be extrapolated or held, got '" + kinematics + "'");
     held_ = kinematics == "held";
+    const std::string forces = m.string("forces", "held");
+    if (forces != "held" && forces != "linearised")
+      m.error("forces", "must be held or linearised, got '" + forces + "'");
+    linearised_ = forces == "linearised";
   }
 
   std::string kind() const override { return "pd-dem-contact"; }
@@ -54,7 +68,7 @@ class PdDemContact final : public Coupling {
   void describe(std::ostream& out) const override {
     out << pd_ << " hybrid surface particles (Eq. 39) -> " << dem_ << " driven spheres; " << dem_
         << " contact forces -> " << pd_ << " (Hartmann 2022 Sec. 3), hybrid kinematics "
-        << (held_ ? "held" : "extrapolated");
+        << (held_ ? "held" : "extrapolated") << ", contact forces " << (linearised_ ? "linearised" : "held");
   }
 
   void exchange(ExchangeContext& ctx) override {
@@ -78,7 +92,8 @@ class PdDemContact final : public Coupling {
       }
       ctx.inputs[dem_].stageHybridParticles(
           {wire::view(h.getIds()), wire::view(h.getBodyIds()), wire::view(h.getReferencePositions()),
-           wire::view(h.getPositions()), velocities, wire::view(h.getRadii()), wire::view(h.getHorizons())});
+           wire::view(h.getPositions()), velocities, wire::view(h.getRadii()), wire::view(h.getHorizons()),
+           linearised_});
     }
   }
 
@@ -87,7 +102,17 @@ class PdDemContact final : public Coupling {
     for (auto f : dem.getHybridForces()) {
       const auto ids = wire::view(f.getIds());
       const auto forces = wire::view(f.getForces());
-      ctx.inputs[pd_].stageHybridForces({ids, forces});
+      InputAssembler::StagedHybridForces staged{ids, forces};
+      if (linearised_) {
+        staged.positions = wire::view(f.getPositions());
+        staged.stiffness = wire::view(f.getStiffness());
+        if (staged.positions.size() != 3 * ids.size() || staged.stiffness.size() != 6 * ids.size())
+          throw std::runtime_error("coupling '" + name() + "' (forces: linearised): solver '" + dem_ + "' sent " +
+                                   std::to_string(staged.positions.size()) + " positions and " +
+                                   std::to_string(staged.stiffness.size()) + " stiffness values for " +
+                                   std::to_string(ids.size()) + " hybrid particles (need 3 and 6 per particle)");
+      }
+      ctx.inputs[pd_].stageHybridForces(staged);
       record(ids, forces, ctx);
     }
   }
@@ -109,6 +134,7 @@ class PdDemContact final : public Coupling {
 
   std::string pd_, dem_;
   bool held_ = false;
+  bool linearised_ = false;
   std::vector<double> zeros_;  // velocities staged with held kinematics
 };
 

@@ -337,7 +337,7 @@ void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
 
 void DemSolver::fillOutputs(proto::CouplingData::Builder outputs) const {
   if (!zoneMembers_.empty()) fillZones(outputs);
-  if (hybrids_.size() > 0) hybrids_.fill(outputs.initHybridForces(1)[0], system_.particles);
+  if (hybrids_.size() > 0) hybrids_.fill(outputs.initHybridForces(1)[0], system_);
   if (system_.meshes.empty()) return;
   auto lists = outputs.initContacts(static_cast<unsigned>(system_.meshes.size()));
   for (std::size_t g = 0; g < system_.meshes.size(); ++g) {

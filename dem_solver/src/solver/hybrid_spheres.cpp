@@ -1,5 +1,6 @@
 #include "cosim/dem/solver/hybrid_spheres.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
@@ -73,6 +74,7 @@ bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& sys
                                 std::to_string(v.size()) + " values)");
   const bool first = ids_.empty();
   if (first) add(message, system, material);
+  wantStiffness_ = message.getWantStiffness();
   if (ids.size() != ids_.size())
     throw std::invalid_argument("hybrid particles: " + std::to_string(ids.size()) + " sent, but the set had " +
                                 std::to_string(ids_.size()) + " (the set is fixed at its first exchange)");
@@ -121,6 +123,8 @@ void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& syste
   for (const auto& [a, b] : pairs) system.excludedPairs.emplace_back(first + a, first + b);
   impulse_.assign(ids_.size(), {});
   mean_.assign(ids_.size(), {});
+  positionSum_.assign(ids_.size(), {});
+  meanPosition_.assign(ids_.size(), {});
 }
 
 void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance) const {
@@ -140,19 +144,29 @@ void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance
                               " m (params.overlap_tolerance x the smaller radius)");
 }
 
-void HybridSpheres::beginInterval() { impulse_.assign(ids_.size(), {}); }
+void HybridSpheres::beginInterval() {
+  impulse_.assign(ids_.size(), {});
+  positionSum_.assign(ids_.size(), {});
+}
 
 void HybridSpheres::accumulate(const Particles& p) {
   // p.f of a driven sphere is its contact and wall reaction only (no body force).
-  for (std::size_t k = 0; k < index_.size(); ++k) impulse_[k] += p.f[index_[k]];
+  for (std::size_t k = 0; k < index_.size(); ++k) {
+    impulse_[k] += p.f[index_[k]];
+    positionSum_[k] += p.x[index_[k]];
+  }
 }
 
 void HybridSpheres::endInterval(std::uint32_t steps) {
-  for (std::size_t k = 0; k < impulse_.size(); ++k) mean_[k] = (1.0 / steps) * impulse_[k];
+  for (std::size_t k = 0; k < impulse_.size(); ++k) {
+    mean_[k] = (1.0 / steps) * impulse_[k];
+    meanPosition_[k] = (1.0 / steps) * positionSum_[k];
+  }
   averaged_ = true;
 }
 
-void HybridSpheres::fill(proto::HybridForces::Builder out, const Particles& p) const {
+void HybridSpheres::fill(proto::HybridForces::Builder out, const DemSystem& system) const {
+  const Particles& p = system.particles;
   const auto n = static_cast<unsigned>(ids_.size());
   auto ids = wire::view(out.initIds(n));
   auto f = wire::view(out.initForces(3 * n));
@@ -161,6 +175,86 @@ void HybridSpheres::fill(proto::HybridForces::Builder out, const Particles& p) c
     const Vec3 fk = averaged_ ? mean_[k] : p.f[index_[k]];
     for (int d = 0; d < 3; ++d) f[3 * k + static_cast<unsigned>(d)] = fk[d];
   }
+  if (!wantStiffness_) return;
+  auto x = wire::view(out.initPositions(3 * n));
+  for (unsigned k = 0; k < n; ++k) {
+    const Vec3 xk = averaged_ ? meanPosition_[k] : p.x[index_[k]];
+    for (int d = 0; d < 3; ++d) x[3 * k + static_cast<unsigned>(d)] = xk[d];
+  }
+  const std::vector<double> k = stiffness(system);
+  auto kOut = wire::view(out.initStiffness(6 * n));
+  std::copy(k.begin(), k.end(), kOut.begin());
+}
+
+namespace {
+
+/// Adds the stiffness of one contact with unit normal n to a 6-vector (xx yy zz
+/// xy xz yz): S_n n (x) n normally and kTangent (I - n (x) n) across, where
+/// kTangent is k_t while the tangential spring sticks (|F_t| below the Coulomb
+/// limit: sliding contacts have none) minus F_n / |d| for a sphere pair, whose
+/// normal turns as the particle moves across it (geometric stiffness).
+void addContactStiffness(double* k, const Vec3& n, double sn, double kTangent, double weight) {
+  const double a = weight * (sn - kTangent), b = weight * kTangent;
+  k[0] += a * n.x * n.x + b;
+  k[1] += a * n.y * n.y + b;
+  k[2] += a * n.z * n.z + b;
+  k[3] += a * n.x * n.y;
+  k[4] += a * n.x * n.z;
+  k[5] += a * n.y * n.z;
+}
+
+/// k_t of a contact whose force on the particle is f, or 0 while it slides.
+double stickingStiffness(const TangentialLaw& law, const Vec3& f, const Vec3& n, double overlap, double rEff,
+                         const PairMaterial& pm) {
+  const double kt = law.stiffness(overlap, rEff, pm);
+  if (kt <= 0.0) return 0.0;
+  const double fn = dot(f, n);
+  const double ft = std::sqrt(std::max(0.0, norm2(f) - fn * fn));
+  return ft < (1.0 - 1e-6) * pm.friction * std::fabs(fn) ? kt : 0.0;
+}
+
+}  // namespace
+
+std::vector<double> HybridSpheres::stiffness(const DemSystem& system) const {
+  const Particles& p = system.particles;
+  const ContactLaw& law = system.contactLaw();
+  std::vector<double> k(6 * ids_.size(), 0.0);
+  std::vector<std::int64_t> slot(p.size(), -1);
+  for (std::size_t s = 0; s < index_.size(); ++s) slot[index_[s]] = static_cast<std::int64_t>(s);
+  const auto& nl = system.neighbors;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::uint32_t c = nl.rowStart[i]; c < nl.rowStart[i + 1]; ++c) {
+      const std::uint32_t j = nl.partner[c];
+      if (!nl.touching[c] || (slot[i] < 0 && slot[j] < 0)) continue;
+      const Vec3 d = system.pairVector(i, c);
+      const double dist = std::sqrt(norm2(d));
+      const double overlap = p.radius[i] + p.radius[j] - dist;
+      if (overlap <= 0.0 || dist <= 0.0) continue;
+      const Vec3 n = (1.0 / dist) * d;
+      const double rEff = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
+      const PairMaterial& pm = system.materials.pair(p.material[i], p.material[j]);
+      const NormalResponse nr = law.normal().evaluate(overlap, rEff, pm);
+      const double kt = stickingStiffness(law.tangential(), system.pairForce[c].force, n, overlap, rEff, pm);
+      // The pair force depends on x_i - x_j: -df_i/dx_i = -df_j/dx_j = K.
+      const double w = 0.5 * (p.weight[i] + p.weight[j]);
+      for (const std::int64_t s : {slot[i], slot[j]})
+        if (s >= 0) addContactStiffness(&k[6 * static_cast<std::size_t>(s)], n, nr.stiffness, kt - nr.force / dist, w);
+    }
+  for (std::size_t wl = 0; wl < system.planes.size(); ++wl) {
+    const PlaneWall& wall = system.planes[wl];
+    for (std::size_t s = 0; s < index_.size(); ++s) {
+      const std::uint32_t i = index_[s];
+      if (!system.planeTouch[wl][i]) continue;
+      const double overlap = p.radius[i] - dot(p.x[i] - wall.point, wall.normal);
+      if (overlap <= 0.0) continue;
+      const PairMaterial& pm = system.materials.pair(p.material[i], wall.material);
+      const double sn = law.normal().evaluate(overlap, p.radius[i], pm).stiffness;
+      const double kt =
+          stickingStiffness(law.tangential(), system.planeContactForce[wl][i], wall.normal, overlap, p.radius[i], pm);
+      addContactStiffness(&k[6 * s], wall.normal, sn, kt, p.weight[i]);
+    }
+  }
+  return k;
 }
 
 }  // namespace cosim::dem

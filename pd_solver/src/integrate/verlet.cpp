@@ -21,6 +21,25 @@ double PdSystem::criticalTimeStep() const {
   return dt;
 }
 
+void PdSystem::addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const {
+  // First-order change of a contact force as its particle moves away from
+  // where DEM evaluated it: df = -K (x - x_F). The result is clamped so it
+  // never points against the evaluated force: a contact pushes, it cannot pull.
+  const std::size_t i = c.particle;
+  const auto& k = c.stiffness;
+  double dx[3];
+  for (int a = 0; a < 3; ++a)
+    dx[a] = particles_.reference[3 * i + a] + particles_.displacement[3 * i + a] - c.position[a];
+  const double df[3] = {-(k[0] * dx[0] + k[3] * dx[1] + k[4] * dx[2]),
+                        -(k[3] * dx[0] + k[1] * dx[1] + k[5] * dx[2]),
+                        -(k[4] * dx[0] + k[5] * dx[1] + k[2] * dx[2])};
+  const double* held = &coupling_[3 * i];
+  double along = 0.0;
+  for (int a = 0; a < 3; ++a) along += (held[a] + df[a]) * held[a];
+  const double keep = along > 0.0 ? 1.0 : 0.0;
+  for (int a = 0; a < 3; ++a) f[3 * i + a] += keep * df[a] - (1.0 - keep) * held[a];
+}
+
 void PdSystem::computeExternal() {
   auto& f = particles_.externalForce;
   const auto& m = particles_.mass;
@@ -29,6 +48,7 @@ void PdSystem::computeExternal() {
     const auto i = static_cast<std::size_t>(il);
     for (int a = 0; a < 3; ++a) f[3 * i + a] = coupling_[3 * i + a] + m[i] * gravity_[a];
   }
+  for (const auto& c : linearised_) addLinearisedChange(c, f);
   for (const auto& load : loads_) {
     double vol = 0.0;
     for (const auto i : load.particles) vol += particles_.volume[i];

@@ -114,8 +114,10 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
   writeHybrid(outputs);
 }
 
-void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into) const {
+void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into,
+                                std::vector<PdSystem::LinearisedCoupling>* linearised) const {
   into.assign(3 * system_.particles().size(), 0.0);
+  if (linearised) linearised->clear();
   if (!data.hasHybridForces()) return;
   for (const auto hf : data.getHybridForces()) {
     const auto ids = cosim::wire::view(hf.getIds());
@@ -123,6 +125,14 @@ void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::ve
     if (f.size() != 3 * ids.size())
       throw SolverError(Error::Code::BAD_INPUT, "hybridForces: " + std::to_string(ids.size()) + " ids but " +
                                                     std::to_string(f.size()) + " force values (need 3 per id)");
+    const auto x = cosim::wire::view(hf.getPositions());
+    const auto k = cosim::wire::view(hf.getStiffness());
+    const bool follow = !k.empty();
+    if (follow && (x.size() != 3 * ids.size() || k.size() != 6 * ids.size()))
+      throw SolverError(Error::Code::BAD_INPUT, "hybridForces: " + std::to_string(ids.size()) + " ids but " +
+                                                    std::to_string(x.size()) + " positions and " +
+                                                    std::to_string(k.size()) +
+                                                    " stiffness values (need 3 and 6 per id)");
     for (std::size_t q = 0; q < ids.size(); ++q) {
       if (ids[q] >= system_.particles().size())
         throw SolverError(Error::Code::BAD_INPUT, "hybridForces: unknown particle id " + std::to_string(ids[q]));
@@ -132,6 +142,17 @@ void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::ve
                                                         std::to_string(ids[q]));
         into[3 * ids[q] + a] += f[3 * q + a];
       }
+      if (!follow || !linearised) continue;
+      PdSystem::LinearisedCoupling c;
+      c.particle = ids[q];
+      bool finite = true;
+      for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(c.position[a] = x[3 * q + a]);
+      for (int a = 0; a < 6; ++a) finite = finite && std::isfinite(c.stiffness[a] = k[6 * q + a]);
+      if (!finite)
+        throw SolverError(Error::Code::BAD_INPUT, "hybridForces: non-finite position or stiffness of particle " +
+                                                      std::to_string(ids[q]));
+      // Only loaded particles: a zero force has no contact to follow.
+      if (f[3 * q] != 0.0 || f[3 * q + 1] != 0.0 || f[3 * q + 2] != 0.0) linearised->push_back(c);
     }
   }
 }
@@ -144,9 +165,14 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
                                                   " s exceeds the PD critical step " + std::to_string(crit) +
                                                   " s (Hartmann Eqs. 41-42); set 'force: true' to override");
   std::vector<double> f0, f1;
-  readHybridForces(req.inputs, f0);
   const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
-  if (interpolate) readHybridForces(*req.inputsEnd, f1);
+  // Forces sent with their stiffness follow their particles over the sub-steps
+  // (pd-dem-contact `forces: linearised`); interpolation takes precedence.
+  readHybridForces(req.inputs, f0, &system_.linearisedCoupling());
+  if (interpolate) {
+    system_.linearisedCoupling().clear();
+    readHybridForces(*req.inputsEnd, f1, nullptr);
+  }
   auto& coupling = system_.couplingForce();
   const std::uint32_t n = req.steps;
   // Forces received are applied before the next update: the first half kick

@@ -32,7 +32,10 @@ class PdSolver final : public cosim::wire::Solver {
 
  private:
   void requireSetup(const char* what) const;
-  void readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into) const;
+  /// Hybrid forces by particle into `into`; with `linearised`, also the
+  /// stiffness sent with them (cleared first; empty when none was sent).
+  void readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into,
+                        std::vector<PdSystem::LinearisedCoupling>* linearised) const;
   void writeHybrid(cosim::proto::CouplingData::Builder out) const;
   void checkFinite() const;
 

@@ -3,6 +3,7 @@
 // applied loads, advanced by velocity Verlet (leapfrog, Hartmann Eq. 44), the
 // staggered two-kick update of hybrid particles (Eq. 47) or adaptive dynamic
 // relaxation for quasi-static loading.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -72,6 +73,16 @@ class PdSystem {
   /// Coupling forces (e.g. DEM contact on hybrid particles), 3 per particle,
   /// added to the external force from the next force evaluation on.
   std::vector<double>& couplingForce() { return coupling_; }
+  /// A coupling force that follows its particle over the sub-steps of one
+  /// request instead of being held: f = F - K (x - x_F), with F the particle's
+  /// couplingForce, x_F where F was evaluated and K = -df/dx (xx yy zz xy xz yz).
+  struct LinearisedCoupling {
+    std::uint32_t particle = 0;
+    std::array<double, 3> position{};
+    std::array<double, 6> stiffness{};
+  };
+  /// Empty: coupling forces are held (Hartmann Alg. 2).
+  std::vector<LinearisedCoupling>& linearisedCoupling() { return linearised_; }
 
   /// One velocity-Verlet step (Hartmann Eq. 44 in its synchronised form).
   void step(double dt);
@@ -113,6 +124,7 @@ class PdSystem {
 
  private:
   void computeExternal();
+  void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;
   void applyConstraints();
   void kick(double dt);
   void drift(double dt);
@@ -123,6 +135,7 @@ class PdSystem {
   std::vector<AppliedLoad> loads_;
   Vec3 gravity_{};
   std::vector<double> coupling_;
+  std::vector<LinearisedCoupling> linearised_;
   std::vector<double> externalPrev_;
   double time_ = 0.0;
   std::uint64_t step_ = 0;

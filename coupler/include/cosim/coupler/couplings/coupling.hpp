@@ -65,10 +65,12 @@ class InputAssembler {
   struct StagedHybridParticles {  // a HybridParticles (pddem.capnp)
     std::span<const std::uint32_t> ids, bodyIds;
     std::span<const double> referencePositions, positions, velocities, radii, horizons;
+    bool wantStiffness = false;  // ask DEM for the contact stiffness with its forces
   };
   struct StagedHybridForces {  // a HybridForces (pddem.capnp)
     std::span<const std::uint32_t> ids;
     std::span<const double> forces;  // 3 per id
+    std::span<const double> positions = {}, stiffness = {};  // 3 and 6 per id, or empty (held forces)
   };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
   void stageUnitCellJobs(StagedUnitCellJobs jobs) { jobs_.push_back(jobs); }

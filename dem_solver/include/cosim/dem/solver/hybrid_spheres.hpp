@@ -8,7 +8,9 @@
 // interaction is PD's bond force; every other pair (DEM-hybrid, hybrid of
 // another body, or of the same body across its surface) is an ordinary contact.
 // The contact (and plane wall) force on each hybrid particle is summed over the
-// sub-steps and returned as its mean: the impulse over the interval / interval.
+// sub-steps and returned as its mean: the impulse over the interval / interval,
+// with the mean position it was felt at and the contact stiffness K = -df/dx
+// (so PD can follow the force over its own sub-steps, coupling `forces: linearised`).
 #include <cstdint>
 #include <unordered_map>
 #include <utility>
@@ -35,12 +37,18 @@ class HybridSpheres {
   std::size_t size() const { return ids_.size(); }
   /// Starts a new interval of contact-force sums.
   void beginInterval();
-  /// Adds this step's force on every hybrid sphere.
+  /// Adds this step's force on (and position of) every hybrid sphere.
   void accumulate(const Particles& p);
   /// Ends the interval of `steps` sub-steps: the returned forces are the mean.
   void endInterval(std::uint32_t steps);
-  /// The mean force of the last interval (before any: the current forces).
-  void fill(proto::HybridForces::Builder out, const Particles& p) const;
+  /// The mean force of the last interval (before any: the current one); when
+  /// the last HybridParticles asked for it (wantStiffness), also the mean
+  /// position and the stiffness at the current state.
+  void fill(proto::HybridForces::Builder out, const DemSystem& system) const;
+  /// K = -df/dx of each hybrid sphere's contact and plane-wall forces with
+  /// respect to its own position at the current state, 6 per sphere (xx yy zz
+  /// xy xz yz). Triangle-wall contacts are not included.
+  std::vector<double> stiffness(const DemSystem& system) const;
   const std::vector<std::uint32_t>& particleIndices() const { return index_; }
   /// At the start of a run: a hybrid sphere overlapping another sphere (not of
   /// its own PD family) by more than tolerance x the smaller radius would start
@@ -53,7 +61,9 @@ class HybridSpheres {
   std::vector<std::uint32_t> index_;  // DEM particle index of each
   std::unordered_map<std::uint32_t, std::uint32_t> slot_;  // PD id -> position in ids_
   std::vector<Vec3> impulse_, mean_;
+  std::vector<Vec3> positionSum_, meanPosition_;
   bool averaged_ = false;
+  bool wantStiffness_ = false;  // the last HybridParticles asked for positions and stiffness
 };
 
 }  // namespace cosim::dem
