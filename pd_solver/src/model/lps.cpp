@@ -2,6 +2,7 @@
 // weighted volume m (Eq. 19), dilatation theta (Eq. 20), deviatoric extension
 // (Eq. 22), scalar force state t = 3 K theta w |xi| / m + alpha w e^d (Eq. 25)
 // with alpha = 15 G / m, forces f_I = sum (t_IJ + t_JI) M_IJ V_I V_J (Eq. 14).
+#include <algorithm>
 #include <Eigen/Dense>
 #include <cmath>
 
@@ -71,7 +72,9 @@ class Lps final : public PdModel {
   }
 
   std::vector<double> energyDensity(const BodyContext& body) const override {
-    updateExtensions(body);
+    // The energy is asked for after every advance, usually at the state the
+    // last force evaluation saw (Verlet ends with one): reuse its extensions.
+    if (!extensionsAreCurrent(body)) updateExtensions(body);
     const auto& b = body.bonds;
     const auto& p = body.particles;
     std::vector<double> out(body.end - body.begin, 0.0);
@@ -151,6 +154,17 @@ class Lps final : public PdModel {
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
     }
+    const auto first = p.displacement.begin() + static_cast<long>(3 * body.begin);
+    uOfExtensions_.assign(first, first + 3 * n);
+  }
+
+  /// True when the body's displacements are bitwise those of the last
+  /// updateExtensions (bonds break only in computeForces, before it).
+  bool extensionsAreCurrent(const BodyContext& body) const {
+    const std::size_t n3 = 3 * (body.end - body.begin);
+    if (uOfExtensions_.size() != n3) return false;
+    const double* u = body.particles.displacement.data() + 3 * body.begin;
+    return std::equal(uOfExtensions_.begin(), uOfExtensions_.end(), u);
   }
 
   // Without surface correction every factor is 1 and t_IJ = (A_I w |xi| + B_I w e)
@@ -298,6 +312,7 @@ class Lps final : public PdModel {
   bool corrected_ = false;
   std::vector<double> weight_, dilatationFactor_, deviatoricFactor_, m_, t_;
   mutable std::vector<double> theta_, e_;  // scratch of the current configuration
+  mutable std::vector<double> uOfExtensions_;  // the body's displacements e_ and theta_ belong to
   std::vector<std::size_t> reverse_;
   std::vector<double> coefA_, coefB_;
 };
