@@ -88,6 +88,18 @@ TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
   EXPECT_GT(pressure.back() - pressure.front(), 2e3);
   EXPECT_LT(pressure.back() - pressure.front(), 30e3);
   for (std::size_t k = 1; k < jobs.size(); ++k) EXPECT_EQ(jobs[k], 2.0);
+  // The time-step relation of Liu Eqs. 63-66 in the run report.
+  std::ifstream in(dir_ / "run" / "run_report.json");
+  const auto figures = nlohmann::json::parse(in)["figures"];
+  const double fine = figures["fine_critical_dt_s"], coarse = figures["coarse_critical_dt_s"];
+  EXPECT_GT(fine, 1e-9);
+  EXPECT_LT(fine, 1e-5);  // contacts of a 0.5 mm grain: far below the coarse step
+  EXPECT_GT(figures["fine_dt_over_critical"].get<double>(), 0.0);
+  EXPECT_LT(figures["fine_dt_over_critical"].get<double>(), 1.0);  // the cells relax stably
+  EXPECT_EQ(figures["coarse_dt_s"].get<double>(), 2.0e-5);
+  EXPECT_NEAR(figures["coarse_dt_over_critical"].get<double>(), 2.0e-5 / coarse, 1e-12);
+  EXPECT_NEAR(figures["time_step_ratio_alpha"].get<double>(), coarse / fine, 1e-9 * coarse / fine);
+  EXPECT_GT(figures["fine_damping_fraction"].get<double>(), 0.0);
 }
 
 TEST_F(GmhRun, NonlocalIncrementsOfAUniformCompressionAreTheLocalOnes) {

@@ -104,5 +104,51 @@ TEST(DemWalls, VelocityDrivenWallDoesWork) {
   EXPECT_NEAR(s.planes[1].point.z, 2 * kR + 1e-5 - 0.05 * 6000 * 1e-7, 1e-12);
 }
 
+
+// Liu 2016 Eqs. 63-64 on a sphere squeezed between a floor and a piston by
+// linear springs: the per-particle stiffness is 2 k_n (2 k_t), so omega_n =
+// sqrt(2 k_n / m), omega_theta = sqrt(5 k_t / m); and velocity Verlet is
+// stable just below 2 / omega_max and not just above it.
+TEST(DemCriticalStep, LiuFineStepFromThePerParticleStiffness) {
+  const auto squeezed = [] {
+    DemSystem s;
+    s.setContactLaw("linear", "linear", "none");
+    s.materials.add(glass());
+    s.particles.add({0, 0, kR - 1e-5}, kR, 2500);
+    PlaneWall piston;
+    piston.point = {0, 0, 2 * kR - 2e-5};
+    piston.normal = {0, 0, -1};
+    s.planes = {PlaneWall{}, piston};
+    s.neighbors.skin = 0.1 * kR;
+    s.initialize();
+    return s;
+  };
+  DemSystem s = squeezed();
+  const double m = s.particles.mass[0], kn = glass().kn, kt = glass().kt;
+  FineTimeStep f = fineTimeStep(s);
+  EXPECT_NEAR(f.omegaN, std::sqrt(2 * kn / m), 1e-12 * f.omegaN);
+  EXPECT_NEAR(f.omegaTheta, std::sqrt(5 * kt / m), 1e-12 * f.omegaTheta);
+  EXPECT_EQ(f.omegaMax, f.omegaN);
+  EXPECT_EQ(f.dampingFraction, 0.0);
+  EXPECT_NEAR(f.criticalDt, 2.0 / f.omegaN, 1e-15);
+  s.massDamping = 0.2 * f.omegaMax;  // xi = 0.1
+  f = fineTimeStep(s);
+  EXPECT_NEAR(f.dampingFraction, 0.1, 1e-12);
+  EXPECT_NEAR(f.criticalDt, 2.0 / f.omegaMax * (std::sqrt(1.01) - 0.1), 1e-15);
+  for (const double factor : {0.95, 1.05}) {
+    DemSystem run = squeezed();
+    const double z0 = run.particles.x[0].z;
+    run.particles.v[0] = {0, 0, 1e-8 * std::sqrt(2 * kn / m)};  // amplitude 1e-8 m, overlaps 1e-5 m
+    const double dt = factor * fineTimeStep(run).criticalDt;
+    double amplitude = 0.0;
+    for (int k = 0; k < 20; ++k) {
+      run.advance(dt);
+      amplitude = std::max(amplitude, std::abs(run.particles.x[0].z - z0));
+    }
+    if (factor < 1.0) EXPECT_LT(amplitude, 1e-7) << "dt = " << factor << " dt_cr";
+    else EXPECT_GT(amplitude, 1e-6) << "dt = " << factor << " dt_cr";
+  }
+}
+
 }  // namespace
 }  // namespace cosim::dem::test

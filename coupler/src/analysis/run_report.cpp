@@ -70,7 +70,9 @@ std::string RunReport::text() const {
   for (const auto& e : errors)
     s << "  error         " << e.name << " = " << std::setprecision(6) << e.value << " " << e.unit << " (against "
       << e.reference << ")\n" << std::setprecision(3);
-  for (const auto& [name, v] : figures) s << "  figure        " << name << " = " << std::setprecision(6) << v << "\n";
+  // Figures span many scales (time steps of 1e-7 s, forces of 1e4 N): six significant digits.
+  for (const auto& [name, v] : figures)
+    s << "  figure        " << name << " = " << std::defaultfloat << std::setprecision(6) << v << std::fixed << "\n";
   for (const auto& [name, e] : finalEnergies) s << "  energy        " << name << " = " << std::setprecision(6) << e << " J\n";
   s << "  output        " << runDir << "\n";
   return s.str();

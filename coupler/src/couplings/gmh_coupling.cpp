@@ -12,11 +12,13 @@
 // `nonlocal: {radius: R}` passes the increments through the staggered nonlocal
 // operator (Liu Eqs. 58-59, A.3-A.6; NonlocalOperator) before they go out.
 #include <algorithm>
+#include <array>
 #include <map>
 #include <optional>
 #include <ostream>
 
 #include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
 #include "cosim/coupler/mapping/nonlocal_operator.hpp"
@@ -187,8 +189,40 @@ class GmhCoupling final : public Coupling {
       auto out = ctx.outputs.find(w);
       if (out == ctx.outputs.end()) continue;
       for (auto r : out->second.getUnitCellResults()) append(r, w, ctx.exchange);
+      for (auto a : out->second.getArrays()) noteFineTimeStep(a);
     }
   }
+
+  /// The tightest fine step any worker reported over the run (Liu Eqs. 63-64):
+  /// [relaxation dt, dt_cr, omega_max, xi, omega_n, omega_theta].
+  void noteFineTimeStep(proto::NamedArray::Reader a) {
+    if (std::string(a.getName().cStr()) != "fine_time_step" || a.getValues().size() != 6) return;
+    const auto v = wire::view(a.getValues());
+    if (v[1] > 0.0 && (fine_[1] == 0.0 || v[1] < fine_[1])) std::copy(v.begin(), v.end(), fine_.begin());
+    if (fine_[0] == 0.0) fine_[0] = v[0];
+  }
+
+ public:
+  /// Liu Eqs. 63-66: the fine (unit cell, Eq. 63) and coarse (FEM, Eq. 65)
+  /// critical steps, the steps used, and alpha = dt_cr^c / dt_cr^f (Eq. 66),
+  /// the optimal ratio of coarse to fine step.
+  void conclude(RunReport& report) const override {
+    double coarseCritical = 0.0;
+    for (const auto& p : report.peers)
+      if (p.name == fem_) coarseCritical = p.criticalDt;
+    auto& f = report.figures;
+    f["fine_dt_s"] = fine_[0];
+    f["fine_critical_dt_s"] = fine_[1];
+    f["fine_omega_max_rad_s"] = fine_[2];
+    f["fine_damping_fraction"] = fine_[3];
+    f["coarse_dt_s"] = dt_;
+    f["coarse_critical_dt_s"] = coarseCritical;
+    if (fine_[1] > 0.0) f["fine_dt_over_critical"] = fine_[0] / fine_[1];
+    if (coarseCritical > 0.0) f["coarse_dt_over_critical"] = dt_ / coarseCritical;
+    if (fine_[1] > 0.0 && coarseCritical > 0.0) f["time_step_ratio_alpha"] = coarseCritical / fine_[1];
+  }
+
+ private:
 
   void append(proto::UnitCellResults::Reader r, const std::string& worker, std::uint64_t exchange) {
     const auto ids = wire::view(r.getCellIds());
@@ -241,6 +275,7 @@ class GmhCoupling final : public Coupling {
   std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
   std::map<std::string, WorkerJobs> jobs_;
   GatheredResults gathered_;
+  std::array<double, 6> fine_{};  // see noteFineTimeStep
 };
 
 const bool registered = CouplingRegistry::add(

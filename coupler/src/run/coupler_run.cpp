@@ -470,6 +470,8 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& [name, energies] : energies_) {
       for (auto e : energies) report_.finalEnergies[name + "." + e.getName().cStr()] = e.getValue();
     }
+    if (completed_ > 0)
+      for (const auto& c : scene_.couplings) c->conclude(report_);
     if (scene_.reference && completed_ > 0) {
       try {
         scene_.reference->conclude(report_);

@@ -168,12 +168,32 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
     }
   }
   if (!failures.empty()) throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
+  writeFineTimeStep(outputs);
+}
+
+void UnitCellWorker::writeFineTimeStep(proto::CouplingData::Builder outputs) const {
+  // Liu 2016 Eqs. 63-64 for the tightest of this worker's cells, with the
+  // pseudo-time step the cells relax with, so the coupler can report the
+  // fine/coarse time-step relation (Eq. 66).
+  FineTimeStep tightest;
+  for (const auto& c : cells_) {
+    const FineTimeStep f = fineTimeStep(*c);
+    if (f.criticalDt > 0.0 && (tightest.criticalDt == 0.0 || f.criticalDt < tightest.criticalDt)) tightest = f;
+  }
+  auto a = outputs.initArrays(1)[0];
+  a.setName(kFineTimeStepArray);
+  a.setComponents(6);
+  auto v = wire::view(a.initValues(6));
+  const double values[6] = {relax_.dt, tightest.criticalDt, tightest.omegaMax, tightest.dampingFraction,
+                            tightest.omegaN, tightest.omegaTheta};
+  std::copy(std::begin(values), std::end(values), v.begin());
 }
 
 void UnitCellWorker::report(proto::CouplingData::Builder outputs) const {
   const auto n = static_cast<unsigned>(ids_.size());
   ResultRows rows(outputs.initUnitCellResults(1)[0], n);
   for (unsigned k = 0; k < n; ++k) rows.set(k, ids_[k], measureCell(*cells_[k]), 0);
+  writeFineTimeStep(outputs);
 }
 
 std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {

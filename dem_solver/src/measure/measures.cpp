@@ -142,6 +142,45 @@ double criticalTimeStep(const DemSystem& s, std::span<const std::uint32_t> integ
   return orZero(dt);
 }
 
+FineTimeStep fineTimeStep(const DemSystem& s) {
+  const Particles& p = s.particles;
+  const ContactLaw& law = s.contactLaw();
+  std::vector<double> kn(p.size(), 0.0), kt(p.size(), 0.0);
+  const auto add = [&](std::size_t i, double overlap, double rEff, const PairMaterial& pm) {
+    kn[i] += law.normal().evaluate(overlap, rEff, pm).stiffness;
+    kt[i] += law.tangential().stiffness(overlap, rEff, pm);
+  };
+  const auto& nl = s.neighbors;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double rsum = p.radius[i] + p.radius[j];
+      const double overlap = rsum - norm(s.pairVector(i, k));
+      if (overlap <= 0.0) continue;
+      const PairMaterial& pm = s.materials.pair(p.material[i], p.material[j]);
+      add(i, overlap, p.radius[i] * p.radius[j] / rsum, pm);
+      add(j, overlap, p.radius[i] * p.radius[j] / rsum, pm);
+    }
+  for (const PlaneWall& w : s.planes)
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double overlap = p.radius[i] - w.distance(p.x[i]);
+      if (overlap > 0.0) add(i, overlap, p.radius[i], s.materials.pair(p.material[i], w.material));
+    }
+  FineTimeStep f;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.driven[i]) continue;
+    const double m = p.weight[i] * p.mass[i];
+    f.omegaN = std::max(f.omegaN, std::sqrt(kn[i] / m));               // Liu Eq. 64
+    f.omegaTheta = std::max(f.omegaTheta, std::sqrt(2.5 * kt[i] / m));  // k_theta / I = k_t R^2 / (2/5 m R^2)
+  }
+  f.omegaMax = std::max(f.omegaN, f.omegaTheta);
+  if (f.omegaMax <= 0.0) return f;
+  f.dampingFraction = s.massDamping / (2.0 * f.omegaMax);
+  const double xi = f.dampingFraction;
+  f.criticalDt = 2.0 / f.omegaMax * (std::sqrt(1.0 + xi * xi) - xi);  // Liu Eq. 63
+  return f;
+}
+
 }  // namespace cosim::dem
 
 namespace cosim::dem {

@@ -23,6 +23,7 @@ class MapReader;
 namespace cosim::coupler {
 
 struct SolverSpec;
+struct RunReport;
 
 /// The inputs of one solver's next request, as views into data that stays
 /// alive until the request is built: replies of the last exchange, or
@@ -140,6 +141,9 @@ class Coupling {
   /// What the run loses with a participant that died or hung (e.g. the unit
   /// cells a worker held), for the message that stops the run; empty if nothing.
   virtual std::string describeLoss(const std::string& /*solver*/) const { return {}; }
+  /// Adds the coupling's own figures to the run report at its end (the peers'
+  /// timings and critical steps are in it already).
+  virtual void conclude(RunReport& /*report*/) const {}
 
  private:
   std::string name_;

@@ -33,6 +33,10 @@
 
 namespace cosim::dem {
 
+/// The array every reply of a worker carries: [relaxation dt, Liu Eq. 63
+/// critical step, omega_max, xi, omega_n, omega_theta] of its tightest cell.
+inline constexpr const char* kFineTimeStepArray = "fine_time_step";
+
 class UnitCellWorker {
  public:
   /// From params.unit_cells; every other params key is refused (a worker holds only cells).
@@ -59,6 +63,7 @@ class UnitCellWorker {
   void add(std::uint32_t id, DemSystem cell);
 
  private:
+  void writeFineTimeStep(proto::CouplingData::Builder outputs) const;
   RelaxSettings relax_;
   std::vector<std::uint32_t> ids_;
   std::vector<std::unique_ptr<DemSystem>> cells_;

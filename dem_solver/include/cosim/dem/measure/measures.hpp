@@ -47,4 +47,16 @@ double criticalTimeStep(const DemSystem& s);
 /// twice the fastest speed / pi, or sqrt(m*/k); 0 for none or at rest.
 double criticalTimeStep(const DemSystem& s, std::span<const std::uint32_t> integratedElsewhere);
 
+/// The fine-scale critical step of Liu 2016 Eqs. 63-64 at the current contacts:
+/// each particle's translational and rotational frequencies from the stiffness
+/// of all its contacts, omega_n = sqrt(k_n / m) and omega_theta =
+/// sqrt(5 k_t / (2 m)) (k_n the normal tangent stiffness summed over its
+/// contacts, k_t the tangential), omega_max the largest of either over the
+/// particles, xi = c / (2 omega_max) for the mass damping -c m v, and
+/// dt_cr = 2 / omega_max (sqrt(1 + xi^2) - xi). All 0 without contacts.
+struct FineTimeStep {
+  double omegaN = 0.0, omegaTheta = 0.0, omegaMax = 0.0, dampingFraction = 0.0, criticalDt = 0.0;
+};
+FineTimeStep fineTimeStep(const DemSystem& s);
+
 }  // namespace cosim::dem
