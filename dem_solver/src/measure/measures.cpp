@@ -16,17 +16,11 @@ Energies energies(const DemSystem& s) {
     e.rotational += 0.5 * p.weight[i] * p.inertia[i] * norm2(p.omega[i]);
     e.potential -= p.weight[i] * p.mass[i] * dot(s.gravity, p.x[i]);
   }
-  const auto& nl = s.neighbors;
-  for (std::size_t i = 0; i < p.size(); ++i)
-    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const double rsum = p.radius[i] + p.radius[j];
-      const double overlap = rsum - norm(s.pairVector(i, k));
-      if (overlap <= 0.0) continue;
-      const double wc = 0.5 * (p.weight[i] + p.weight[j]);
-      e.elastic += wc * law.energy(overlap, p.radius[i] * p.radius[j] / rsum,
-                                   s.materials.pair(p.material[i], p.material[j]), nl.shear[k]);
-    }
+  forEachOverlap(s, [&](const PairOverlap& c) {
+    const double wc = 0.5 * (p.weight[c.i] + p.weight[c.j]);
+    e.elastic += wc * law.energy(c.overlap, c.rEff, s.materials.pair(p.material[c.i], p.material[c.j]),
+                                 s.neighbors.shear[c.k]);
+  });
   for (std::size_t w = 0; w < s.planes.size(); ++w)
     for (std::size_t i = 0; i < p.size(); ++i) {
       const double overlap = p.radius[i] - s.planes[w].distance(p.x[i]);
@@ -150,17 +144,11 @@ FineTimeStep fineTimeStep(const DemSystem& s) {
     kn[i] += law.normal().evaluate(overlap, rEff, pm).stiffness;
     kt[i] += law.tangential().stiffness(overlap, rEff, pm);
   };
-  const auto& nl = s.neighbors;
-  for (std::size_t i = 0; i < p.size(); ++i)
-    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const double rsum = p.radius[i] + p.radius[j];
-      const double overlap = rsum - norm(s.pairVector(i, k));
-      if (overlap <= 0.0) continue;
-      const PairMaterial& pm = s.materials.pair(p.material[i], p.material[j]);
-      add(i, overlap, p.radius[i] * p.radius[j] / rsum, pm);
-      add(j, overlap, p.radius[i] * p.radius[j] / rsum, pm);
-    }
+  forEachOverlap(s, [&](const PairOverlap& c) {
+    const PairMaterial& pm = s.materials.pair(p.material[c.i], p.material[c.j]);
+    add(c.i, c.overlap, c.rEff, pm);
+    add(c.j, c.overlap, c.rEff, pm);
+  });
   for (const PlaneWall& w : s.planes)
     for (std::size_t i = 0; i < p.size(); ++i) {
       const double overlap = p.radius[i] - w.distance(p.x[i]);

@@ -221,25 +221,17 @@ std::vector<double> HybridSpheres::stiffness(const DemSystem& system) const {
   std::vector<double> k(6 * ids_.size(), 0.0);
   std::vector<std::int64_t> slot(p.size(), -1);
   for (std::size_t s = 0; s < index_.size(); ++s) slot[index_[s]] = static_cast<std::int64_t>(s);
-  const auto& nl = system.neighbors;
-  for (std::size_t i = 0; i < p.size(); ++i)
-    for (std::uint32_t c = nl.rowStart[i]; c < nl.rowStart[i + 1]; ++c) {
-      const std::uint32_t j = nl.partner[c];
-      if (!nl.touching[c] || (slot[i] < 0 && slot[j] < 0)) continue;
-      const Vec3 d = system.pairVector(i, c);
-      const double dist = std::sqrt(norm2(d));
-      const double overlap = p.radius[i] + p.radius[j] - dist;
-      if (overlap <= 0.0 || dist <= 0.0) continue;
-      const Vec3 n = (1.0 / dist) * d;
-      const double rEff = p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]);
-      const PairMaterial& pm = system.materials.pair(p.material[i], p.material[j]);
-      const NormalResponse nr = law.normal().evaluate(overlap, rEff, pm);
-      const double kt = stickingStiffness(law.tangential(), system.pairForce[c].force, n, overlap, rEff, pm);
-      // The pair force depends on x_i - x_j: -df_i/dx_i = -df_j/dx_j = K.
-      const double w = 0.5 * (p.weight[i] + p.weight[j]);
-      for (const std::int64_t s : {slot[i], slot[j]})
-        if (s >= 0) addContactStiffness(&k[6 * static_cast<std::size_t>(s)], n, nr.stiffness, kt - nr.force / dist, w);
-    }
+  forEachOverlap(system, [&](const PairOverlap& c) {
+    if (c.dist <= 0.0 || (slot[c.i] < 0 && slot[c.j] < 0)) return;
+    const Vec3 n = (1.0 / c.dist) * c.d;
+    const PairMaterial& pm = system.materials.pair(p.material[c.i], p.material[c.j]);
+    const NormalResponse nr = law.normal().evaluate(c.overlap, c.rEff, pm);
+    const double kt = stickingStiffness(law.tangential(), system.pairForce[c.k].force, n, c.overlap, c.rEff, pm);
+    // The pair force depends on x_i - x_j: -df_i/dx_i = -df_j/dx_j = K.
+    const double w = 0.5 * (p.weight[c.i] + p.weight[c.j]);
+    for (const std::int64_t s : {slot[c.i], slot[c.j]})
+      if (s >= 0) addContactStiffness(&k[6 * static_cast<std::size_t>(s)], n, nr.stiffness, kt - nr.force / c.dist, w);
+  });
   for (std::size_t wl = 0; wl < system.planes.size(); ++wl) {
     const PlaneWall& wall = system.planes[wl];
     for (std::size_t s = 0; s < index_.size(); ++s) {

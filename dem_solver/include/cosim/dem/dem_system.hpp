@@ -99,4 +99,28 @@ class DemSystem {
   std::string integratorName_;
 };
 
+/// One listed pair of spheres that overlaps now: d = x_i - x_j (nearest
+/// image), its length, the overlap and R* = r_i r_j / (r_i + r_j).
+struct PairOverlap {
+  std::uint32_t i = 0, j = 0, k = 0;  // k: index into the neighbour list
+  Vec3 d;
+  double dist = 0.0, overlap = 0.0, rEff = 0.0;
+};
+
+/// Calls f(PairOverlap) for every listed pair that overlaps at the current positions.
+template <class F>
+void forEachOverlap(const DemSystem& s, F&& f) {
+  const Particles& p = s.particles;
+  const auto& nl = s.neighbors;
+  for (std::uint32_t i = 0; i < p.size(); ++i)
+    for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double rsum = p.radius[i] + p.radius[j];
+      const Vec3 d = s.pairVector(i, k);
+      const double dist = norm(d);
+      if (dist >= rsum) continue;
+      f(PairOverlap{i, j, k, d, dist, rsum - dist, p.radius[i] * p.radius[j] / rsum});
+    }
+}
+
 }  // namespace cosim::dem

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Scene L4, reduced (Liu, Sun, Fish 2016 Sec. 3.4): prepares a unit cell and
+# its weakened variant (dem_prepare_cell --remove 25), runs
+# configs/gmh/l4_simple_shear.yaml on them (coupler + fem_solver + two
+# dem_solver workers, one OpenMP thread each) and prints the shear response,
+# the pool-mean porosity and coordination against the nominal shear strain,
+# and the shear band (bench/gmh/l4_shear_band.py, /usr/bin/python3 with h5py).
+# Usage: bench/gmh/l4_simple_shear.sh [spheres per cell (500)] [coarse steps (1000)] [band at gamma (0.12)]
+# Environment: COSIM_BIN (default build/bin), L4_WORK (default a fresh /tmp dir).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+bin=${COSIM_BIN:-$root/build/bin}
+count=${1:-500}
+steps=${2:-1000}
+at=${3:-0.12}
+work=${L4_WORK:-$(mktemp -d /tmp/gmh-l4.XXXXXX)}
+mkdir -p "$work"
+t0=$(date +%s)
+"$bin/dem_prepare_cell" --out "$work/cell" --count "$count" --seed 1 --remove 25 > "$work/prepare.log"
+grep -E "^prepared" "$work/prepare.log" || true
+t1=$(date +%s)
+# Nominal strain per coarse step stays 2e-4 whatever the step count: 20 % at 1000 steps.
+speed=$(python3 -c "import sys; print(0.2 * 0.118 / (int(sys.argv[1]) * 2e-5))" "$steps")
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/gmh/l4_simple_shear.yaml" --out "$work/run" \
+  --no-progress --set "schedule.coarse_steps=$steps" \
+  --set "solvers.block.params.boundary[1].value=$speed" \
+  --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
+  --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" \
+  --set "solvers.cells_b.params.unit_cells.weakened.file=$work/cell_weak.ckpt" \
+  > "$work/run.log" 2>&1 || { echo "coupler run failed (see $work/run.log):"; tail -5 "$work/run.log"; exit 1; }
+t2=$(date +%s)
+grep -E "wall time|cells_a|cells_b|figure +(fine|coarse|time_step)" "$work/run.log"
+/usr/bin/python3 "$root/bench/gmh/l4_shear_band.py" "$work/run" --at "$at"
+echo "(preparation $((t1 - t0)) s, GMH run $((t2 - t1)) s; files in $work)"
