@@ -74,6 +74,8 @@ struct Advance {
   inputs @4 :Data.CouplingData;
   inputsEnd @5 :Data.CouplingData; # when present: interface data at the end of the
                                    # interval, for linear interpolation in sub-steps
+  wantEnergies @6 :Bool = true;    # false: the reply may leave its energies out (they
+                                   # can cost a sweep over the model, e.g. PD's bonds)
 }
 
 struct Advanced {

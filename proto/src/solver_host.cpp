@@ -261,8 +261,10 @@ struct SolverHost::Impl {
     done.setTime(solver.time());
     done.setStep(solver.step());
     done.setCriticalDt(solver.criticalDt());
-    const auto energies = solver.energies();
-    fillEnergies(done.initEnergies(static_cast<unsigned>(energies.size())), energies);
+    if (a.getWantEnergies()) {
+      const auto energies = solver.energies();
+      fillEnergies(done.initEnergies(static_cast<unsigned>(energies.size())), energies);
+    }
     data.send(m);
   }
 

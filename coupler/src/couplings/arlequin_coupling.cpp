@@ -66,6 +66,7 @@ class ArlequinCoupling final : public Coupling {
   }
 
   std::string kind() const override { return "arlequin"; }
+  bool usesEnergies() const override { return true; }
   std::vector<std::string> participants() const override { return {dem_, fem_}; }
   std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
     if (solver == dem_) return {"particle-states", "external-forces"};

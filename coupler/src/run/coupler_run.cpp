@@ -125,6 +125,7 @@ class CouplerRun final : public ExchangeDriver {
         adv.setDt(plan.dt);
         adv.setTime(time_);
         adv.setExchange(exchange_);
+        adv.setWantEnergies(wantsEnergies());
         inputs.build(adv.initInputs());
         sentAt.push_back(monotonicSeconds());
         pending.emplace_back(name, session_->request(name, m));
@@ -393,8 +394,24 @@ class CouplerRun final : public ExchangeDriver {
         throw wire::PeerFault(name, "solver '" + name + "' reported " + e.getName().cStr() + " = " +
                                         std::to_string(e.getValue()) + " at exchange " + std::to_string(exchange_) +
                                         " (t = " + std::to_string(time_) + " s): the run is unstable");
+    // A reply without energies (not asked for) leaves the last ones in force:
+    // the message they point into is kept until energies come again.
+    const bool fresh = adv.getEnergies().size() > 0;
+    auto last = latest_.find(name);
+    if (fresh) energySource_.erase(name);
+    else if (last != latest_.end() && !energySource_.count(name)) energySource_.emplace(name, std::move(last->second));
     latest_.insert_or_assign(name, std::move(reply.message));
-    keepViews(name);
+    outputs_[name] = outputsOf(latest_.at(name));
+    if (fresh) energies_.insert_or_assign(name, energiesOf(latest_.at(name)));
+  }
+
+  /// Energies can cost a sweep over a solver's model: ask for them only when
+  /// this exchange writes a series row, or an analysis or coupling reads them.
+  bool wantsEnergies() const {
+    if (recordsThisExchange()) return true;
+    if (scene_.reference && scene_.reference->usesEnergies()) return true;
+    return std::any_of(scene_.couplings.begin(), scene_.couplings.end(),
+                       [](const auto& c) { return c->usesEnergies(); });
   }
 
   void runCouplings(const std::set<std::string>& advanced) {
@@ -513,7 +530,8 @@ class CouplerRun final : public ExchangeDriver {
   std::optional<CheckpointStore::Point> resumeFrom_;
   std::map<std::string, wire::InMessage> latest_;
   std::map<std::string, proto::CouplingData::Reader> outputs_;  // views into latest_ (keepViews)
-  SolverEnergies energies_;                                      // views into latest_ (keepViews)
+  SolverEnergies energies_;  // views into latest_, or energySource_ after replies without energies
+  std::map<std::string, wire::InMessage> energySource_;  // the reply the energies came with, when older
   std::map<std::string, InputAssembler> inputs_;
   std::map<std::string, PeerTiming> timings_;
   std::uint64_t exchange_ = 0;   // the exchange in progress (or last done)

@@ -33,6 +33,7 @@ class ForceDisplacement final : public Reference {
   }
 
   std::string kind() const override { return "force-displacement"; }
+  bool usesEnergies() const override { return false; }
   void describe(std::ostream& out) const override {
     out << "spheres of '" << dem_ << "' zone '" << zone_ << "' loading along (" << n_[0] << ", " << n_[1] << ", "
         << n_[2] << ")" << (referenceRun_.empty() ? std::string(", no stored reference") : ", against " + referenceRun_);

@@ -53,6 +53,7 @@ class HertzIndentation final : public Reference {
   }
 
   std::string kind() const override { return "hertz-indentation"; }
+  bool usesEnergies() const override { return false; }
   void describe(std::ostream& out) const override {
     out << "sphere of '" << dem_ << "' zone '" << zone_ << "' into '" << pd_
         << "': Hertz F = 4/3 E* sqrt(R) d^1.5, E* = " << eStar_ << " Pa";

@@ -44,6 +44,9 @@ class Reference {
   virtual void observe(const Observation& o) = 0;
   /// True when the run has nothing left to show (the schedule stops early).
   virtual bool finished() const { return false; }
+  /// Whether observe() reads the solvers' energies at every exchange (they
+  /// are asked for only then, or when a series row is written).
+  virtual bool usesEnergies() const { return true; }
   /// Adds the error metric (first) and the scene's figures to the report.
   virtual void conclude(RunReport& report) const = 0;
 };

@@ -144,6 +144,9 @@ class Coupling {
   /// Adds the coupling's own figures to the run report at its end (the peers'
   /// timings and critical steps are in it already).
   virtual void conclude(RunReport& /*report*/) const {}
+  /// Whether exchange() reads ctx.energies (they are asked for only then, or
+  /// when a series row is written).
+  virtual bool usesEnergies() const { return false; }
 
  private:
   std::string name_;
