@@ -125,9 +125,11 @@ class Conformance : public ::testing::Test {
     return reply;
   }
 
-  wire::InMessage advance(std::uint32_t steps, double dt, std::optional<std::uint64_t> seq = std::nullopt) {
+  wire::InMessage advance(std::uint32_t steps, double dt, std::optional<std::uint64_t> seq = std::nullopt,
+                          bool wantEnergies = true) {
     wire::OutMessage m;
     auto a = m.envelope().getBody().initAdvance();
+    a.setWantEnergies(wantEnergies);
     a.setSteps(steps);
     a.setDt(dt);
     a.setTime(time_);
@@ -219,6 +221,19 @@ TEST_F(Conformance, SetupThenAdvanceMovesTimeAndSteps) {
   ASSERT_TRUE(r.envelope().getBody().isAdvanced()) << describe(r);
   EXPECT_EQ(r.envelope().getBody().getAdvanced().getStep(), 5u);
   EXPECT_NEAR(r.envelope().getBody().getAdvanced().getTime(), 5 * dt_, 1e-12 * std::max(1.0, 5 * dt_));
+}
+
+TEST_F(Conformance, EnergiesAreLeftOutUnlessAskedFor) {
+  // The coupler asks only on exchanges that record them (a PD strain energy is a bond sweep).
+  welcome();
+  setup();
+  auto r = advance(1, dt_, std::nullopt, false);
+  ASSERT_TRUE(r.envelope().getBody().isAdvanced()) << describe(r);
+  EXPECT_EQ(r.envelope().getBody().getAdvanced().getEnergies().size(), 0u);
+  time_ += dt_;
+  r = advance(1, dt_);
+  ASSERT_TRUE(r.envelope().getBody().isAdvanced()) << describe(r);
+  for (auto e : r.envelope().getBody().getAdvanced().getEnergies()) EXPECT_TRUE(std::isfinite(e.getValue()));
 }
 
 TEST_F(Conformance, FieldsAreServedAndUnknownNamesRejected) {
