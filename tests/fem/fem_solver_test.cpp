@@ -126,6 +126,38 @@ TEST(FemSolverAdapter, BadPeriodicAndHourglassKeysAreNamed) {
   EXPECT_NE(type.find("hourglass.type must be stiffness or viscous"), std::string::npos) << type;
 }
 
+TEST(FemSolverAdapter, InitialVelocityIsAnAffineFieldUnderThePrescribedOnes) {
+  // v = v0 + L (X - origin): a homogeneous shear rate dv_x/dy plus a drift in z;
+  // the clamped nodes keep v = 0 (Dirichlet wins).
+  FemSolver s;
+  Harness h;
+  h.setup(s, scene("{type: central-difference}", "      initial_velocity: {velocity: [0, 0, 0.5], origin: [0, 1, 0], "
+                                                 "gradient: {x: [0, 2.0, 0]}}\n"));
+  capnp::MallocMessageBuilder msg;
+  auto out = msg.initRoot<proto::CouplingData>();
+  s.fields({"velocity"}, out);
+  const auto v = wire::view(out.getArrays()[0].getValues());
+  const auto& X = s.model().mesh().X;
+  std::size_t free = 0;
+  for (std::size_t n = 0; 3 * n < X.size(); ++n) {
+    if (std::abs(X[3 * n + 1]) < 0.01) {  // clamped
+      for (int d = 0; d < 3; ++d) EXPECT_EQ(v[3 * n + static_cast<std::size_t>(d)], 0.0);
+      continue;
+    }
+    ++free;
+    EXPECT_NEAR(v[3 * n], 2.0 * (X[3 * n + 1] - 1.0), 1e-12);
+    EXPECT_EQ(v[3 * n + 1], 0.0);
+    EXPECT_EQ(v[3 * n + 2], 0.5);
+  }
+  EXPECT_GT(free, 0u);
+  const std::string bad = errorOf([&] {
+    FemSolver t;
+    Harness g;
+    g.setup(t, scene("{type: central-difference}", "      initial_velocity: {gradient: {w: [0, 1, 0]}}\n"));
+  });
+  EXPECT_NE(bad.find("initial_velocity.gradient"), std::string::npos) << bad;
+}
+
 TEST(FemSolverAdapter, UnknownKeyNamesKeyAndLine) {
   FemSolver s;
   Harness h;

@@ -221,6 +221,20 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       }
     }
     if (p.has("body_force")) model_->addBodyForce(p.vec3("body_force"));
+    initialVelocity_ = InitialVelocity{};
+    if (p.has("initial_velocity")) {
+      ParamMap iv = p.map("initial_velocity");
+      if (iv.has("velocity")) initialVelocity_.v0 = iv.vec3("velocity");
+      if (iv.has("origin")) initialVelocity_.origin = iv.vec3("origin");
+      if (iv.has("gradient")) {
+        ParamMap g = iv.map("gradient");  // row i: the gradient of v_i
+        const char* rows[3] = {"x", "y", "z"};
+        for (int i = 0; i < 3; ++i)
+          if (g.has(rows[i])) initialVelocity_.gradient.row(i) = g.vec3(rows[i]).transpose();
+        g.finish();
+      }
+      iv.finish();
+    }
     model_->setLoadRamp(p.number("load_ramp", 0.0));
     // Integrator.
     ParamMap in = p.map("integrator");
@@ -345,6 +359,12 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     external_ = dynamic_cast<ExternalStressMaterial*>(&model_->material());
     state_ = State{};
     state_.resize(model_->numDofs());
+    const auto& X = model_->mesh().X;
+    for (std::size_t n = 0; 3 * n < X.size(); ++n) {
+      const Vec3 v = initialVelocity_.v0 +
+                     initialVelocity_.gradient * (Vec3(X[3 * n], X[3 * n + 1], X[3 * n + 2]) - initialVelocity_.origin);
+      for (int d = 0; d < 3; ++d) state_.v[3 * n + static_cast<std::size_t>(d)] = v[d];
+    }
     if (external_) pointF_ = pointDeformationGradients();
     if (integrator_) integrator_->initialise(state_);
     if (snapshots_) snapshots_->write(*model_, state_);

@@ -66,6 +66,13 @@ class FemSolver final : public wire::Solver {
   bool surfaceQuadrature_ = false;
   ExternalStressMaterial* external_ = nullptr;  // owned by the model
   std::vector<double> pointF_;                  // F at the last exchange (GMH)
+  // Initial velocity v = v0 + L (X - origin), e.g. a homogeneous simple shear
+  // that starts without a front running in from the driven boundary.
+  struct InitialVelocity {
+    Vec3 v0 = Vec3::Zero(), origin = Vec3::Zero();
+    Mat3 gradient = Mat3::Zero();
+  };
+  InitialVelocity initialVelocity_;
   double pendingDt_ = 0.0;                      // GMH: a predicted step awaits its stresses
 };
 
