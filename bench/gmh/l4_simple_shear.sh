@@ -25,6 +25,7 @@ speed=$(python3 -c "import sys; print(0.2 * 0.118 / (int(sys.argv[1]) * 2e-5))" 
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/gmh/l4_simple_shear.yaml" --out "$work/run" \
   --no-progress --set "schedule.coarse_steps=$steps" \
   --set "solvers.block.params.boundary[1].value=$speed" \
+  --set "solvers.block.params.initial_velocity={gradient: {x: [0, $(python3 -c "import sys; print(float(sys.argv[1]) / 0.118)" "$speed"), 0]}}" \
   --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
   --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" \
   --set "solvers.cells_b.params.unit_cells.weakened.file=$work/cell_weak.ckpt" \
