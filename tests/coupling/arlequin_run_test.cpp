@@ -3,6 +3,7 @@
 // weighted mass (Eqs. 25-26) must stay constant to round-off, the weighted
 // energy must stay bounded, and the wave must reach the FE beam.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <filesystem>
@@ -86,6 +87,27 @@ TEST_F(ArlequinRun, StopsADivergingCouplingWithTheNumbers) {
   const std::string all = f.out + f.err;
   EXPECT_NE(all.find("coupling 'volume' (exchange"), std::string::npos) << all;
   EXPECT_NE(all.find("diverged"), std::string::npos) << all;
+}
+
+TEST_F(ArlequinRun, DtAutoRespectsThePenaltyStiffness) {
+  // The penalty 1e4 times too stiff for the given dt (the test above): with
+  // dt: auto the step shrinks by the penalty's frequency and the run is stable.
+  std::string scene = sceneWith("penalty: 1.0e10", "penalty: 1.0e14");
+  const std::string given = "schedule: {kind: lockstep, dt: 3.2e-5, steps_per_exchange: 1, exchanges: 400}";
+  scene.replace(scene.find(given), given.size(), "schedule: {kind: lockstep, dt: auto, safety: 0.5, exchanges: 200}");
+  const Finished f = run(scene);
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  std::ifstream in(dir_ / "run" / "run_report.json");
+  const auto report = nlohmann::json::parse(in);
+  const double omegaNodes = report["figures"]["penalty_omega_nodes_rad_s"];
+  const double omegaParticles = report["figures"]["penalty_omega_particles_rad_s"];
+  ASSERT_GT(omegaNodes, 0.0);
+  ASSERT_GT(omegaParticles, 0.0);
+  // The chosen step: half the tightest of the penalty-stiffened steps, so at
+  // most 2 / omega of either side.
+  const double dt = report["simulated_time_s"].get<double>() / 200.0;
+  EXPECT_LE(dt, 0.5 * 2.0 / std::max(omegaNodes, omegaParticles) * (1.0 + 1e-9));
+  EXPECT_LT(dt, 0.05 * 3.2e-5);  // far below the penalty-blind step
 }
 
 }  // namespace

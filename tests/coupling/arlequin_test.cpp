@@ -87,6 +87,26 @@ Eigen::MatrixX3d homogenise(const SparseMatrix& pi, const ParticleCloud& c, cons
 
 // The coupler's hex8 map agrees with fem_solver's shape functions: mapping
 // the exported quadrature points back gives the exported shape values.
+TEST(ArlequinPenalty, FrequencyBoundOfOneNodeAndOneParticle) {
+  // K = eps m_z [1 -1; -1 1] between a node of mass M_n and a particle of mass
+  // M_p: omega_max^2 = eps m_z (1/M_n + 1/M_p). The row-sum bound is 2 eps m_z
+  // / M on each side: exact for equal masses, above the exact value otherwise.
+  SparseMatrix pi(1, 1), m(1, 1);
+  pi.insert(0, 0) = 1.0;
+  m.insert(0, 0) = 0.3;
+  const double eps = 2.0e6;
+  const PenaltyCoupling penalty(pi, m, eps);
+  auto f = penalty.maxFrequencies({4.0}, {4.0});
+  EXPECT_NEAR(f.nodes, std::sqrt(eps * 0.3 * 2.0 / 4.0), 1e-9);
+  EXPECT_NEAR(f.particles, f.nodes, 1e-9);
+  f = penalty.maxFrequencies({4.0}, {1.0});
+  const double exact = std::sqrt(eps * 0.3 * (1.0 / 4.0 + 1.0 / 1.0));
+  EXPECT_GE(std::max(f.nodes, f.particles), exact);
+  EXPECT_NEAR(f.particles, std::sqrt(eps * 0.3 * 2.0 / 1.0), 1e-9);
+  EXPECT_EQ(penalty.maxFrequencies({0.0}, {1.0}).nodes, 0.0);  // a massless node is skipped
+  EXPECT_THROW(penalty.maxFrequencies({1.0, 2.0}, {1.0}), std::runtime_error);
+}
+
 TEST(ArlequinPi, InverseMapMatchesFemShapes) {
   Zone z({0, 0, 0}, {0.8, 1.2, 0.8}, {2, 3, 2});
   double worst = 0.0;

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/analysis/solver_energies.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
@@ -87,6 +88,32 @@ class ArlequinCoupling final : public Coupling {
     inputs[fem_].stageWeightProfile(wp);
   }
 
+  /// Pi and M from the setup outputs, so the penalty's stiffness is known
+  /// before the time step is chosen.
+  void setupReference(const std::map<std::string, proto::CouplingData::Reader>& outputs) override {
+    const auto d = outputs.find(dem_), f = outputs.find(fem_);
+    if (d == outputs.end() || f == outputs.end()) return;
+    build(particleZone(d->second, zone_, 0), f->second, 0);
+  }
+
+  /// The penalty springs stiffen both sides (Cheng Eqs. 31-32): each solver's
+  /// step becomes 2 / sqrt((2 / dt)^2 + omega_penalty^2) for the DOFs it
+  /// integrates (the frequencies add in the Gershgorin bound of one row).
+  void limitCriticalSteps(std::map<std::string, double>& criticalDt) const override {
+    if (!penalty_) return;
+    const auto tighten = [](double& dt, double omega) {
+      if (omega <= 0.0) return;
+      dt = dt > 0.0 ? 2.0 / std::sqrt(4.0 / (dt * dt) + omega * omega) : 2.0 / omega;
+    };
+    tighten(criticalDt[fem_], frequencies_.nodes);
+    tighten(criticalDt[dem_], frequencies_.particles);
+  }
+
+  void conclude(RunReport& report) const override {
+    report.figures["penalty_omega_nodes_rad_s"] = frequencies_.nodes;
+    report.figures["penalty_omega_particles_rad_s"] = frequencies_.particles;
+  }
+
   void exchange(ExchangeContext& ctx) override {
     const auto d = ctx.outputs.find(dem_), f = ctx.outputs.find(fem_);
     if (d == ctx.outputs.end() || f == ctx.outputs.end()) return;
@@ -152,6 +179,13 @@ class ArlequinCoupling final : public Coupling {
     SparseMatrix pi = width_ > 0.0 ? homogenisationCg(mesh_, cloud, *kernel_, width_) : homogenisationDirac(mesh_, cloud);
     penalty_ = std::make_unique<PenaltyCoupling>(std::move(pi), zoneMatrix(mesh_, femArray(fem, zone_, "matrix", exchange), what),
                                                  epsilon_);
+    // Inertia as the solvers integrate it: FEM's (1 - w)-weighted lumped
+    // masses, w m for the particles (Cheng Eqs. 25-26).
+    const auto nodeMasses = femArray(fem, zone_, "masses", exchange);
+    std::vector<double> inertia(cloud.masses.size());
+    for (std::size_t k = 0; k < inertia.size(); ++k)
+      inertia[k] = profile_.along(cloud.positions[k][profile_.axis]) * cloud.masses[k];
+    frequencies_ = penalty_->maxFrequencies({nodeMasses.begin(), nodeMasses.end()}, inertia);
     nodeIds_ = mesh_.nodes;
     particleForces_.assign(3 * particleIds_.size(), 0.0);
     nodeForces_.assign(3 * nodeIds_.size(), 0.0);
@@ -314,6 +348,7 @@ class ArlequinCoupling final : public Coupling {
   std::unique_ptr<CgKernel> kernel_;
   ZoneMesh mesh_;
   std::unique_ptr<PenaltyCoupling> penalty_;
+  PenaltyCoupling::Frequencies frequencies_;
   PenaltyCoupling::Forces forces_;
   Eigen::MatrixX3d uParticles_, uNodes_, previousParticles_, previousNodes_, previousVp_, previousVn_;
   // Staged views point into these until the next exchange.

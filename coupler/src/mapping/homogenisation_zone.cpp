@@ -160,4 +160,32 @@ void PenaltyCoupling::compute(const Eigen::MatrixX3d& uParticles, const Eigen::M
   out.energy = 0.5 * epsilon_ * (gap.array() * Mgap.array()).sum();  // Eq. 29 as an energy
 }
 
+PenaltyCoupling::Frequencies PenaltyCoupling::maxFrequencies(const std::vector<double>& nodeMasses,
+                                                            const std::vector<double>& particleMasses) const {
+  if (nodeMasses.size() != static_cast<std::size_t>(m_.rows()) ||
+      particleMasses.size() != static_cast<std::size_t>(pi_.cols()))
+    throw std::runtime_error("penalty coupling: " + std::to_string(nodeMasses.size()) + " node and " +
+                             std::to_string(particleMasses.size()) + " particle masses for a " +
+                             std::to_string(pi_.rows()) + " x " + std::to_string(pi_.cols()) + " operator");
+  const SparseMatrix mPi = m_ * pi_;
+  const SparseMatrix piMPi = SparseMatrix(pi_.transpose()) * mPi;
+  std::vector<double> nodeRow(nodeMasses.size(), 0.0), particleRow(particleMasses.size(), 0.0);
+  for (Eigen::Index i = 0; i < m_.outerSize(); ++i) {
+    for (SparseMatrix::InnerIterator it(m_, i); it; ++it) nodeRow[static_cast<std::size_t>(i)] += std::abs(it.value());
+    for (SparseMatrix::InnerIterator it(mPi, i); it; ++it) {
+      nodeRow[static_cast<std::size_t>(i)] += std::abs(it.value());
+      particleRow[static_cast<std::size_t>(it.col())] += std::abs(it.value());
+    }
+  }
+  for (Eigen::Index a = 0; a < piMPi.outerSize(); ++a)
+    for (SparseMatrix::InnerIterator it(piMPi, a); it; ++it) particleRow[static_cast<std::size_t>(a)] += std::abs(it.value());
+  const auto bound = [this](const std::vector<double>& rows, const std::vector<double>& masses) {
+    double w2 = 0.0;
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      if (masses[k] > 0.0) w2 = std::max(w2, epsilon_ * rows[k] / masses[k]);
+    return std::sqrt(w2);
+  };
+  return {bound(nodeRow, nodeMasses), bound(particleRow, particleMasses)};
+}
+
 }  // namespace cosim::coupler

@@ -362,8 +362,13 @@ class CouplerRun final : public ExchangeDriver {
       keepViews(name);
     }
     for (const auto& c : scene_.couplings) c->setupReference(outputs_);
+    // dt: auto also respects the stiffness couplings add; a given dt is
+    // checked against the solvers' own steps (the coupling bounds are
+    // conservative estimates).
+    auto limits = critical;
+    for (const auto& c : scene_.couplings) c->limitCriticalSteps(limits);
     try {
-      scene_.schedule->resolveTimeStep(critical, options_.force);
+      scene_.schedule->resolveTimeStep(scene_.schedule->autoTimeStep() ? limits : critical, options_.force);
     } catch (const std::runtime_error& e) {
       throw Refused(e.what());
     }

@@ -46,6 +46,7 @@ class Lockstep final : public Schedule {
     return s.str();
   }
 
+  bool autoTimeStep() const override { return autoDt_; }
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
     const CriticalStep limit = tightestStep(criticalDt, [](const std::string&) { return true; });
     if (autoDt_) {

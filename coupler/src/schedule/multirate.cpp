@@ -66,6 +66,7 @@ class Multirate final : public Schedule {
     return s.str();
   }
 
+  bool autoTimeStep() const override { return autoDt_; }
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
     for (const auto& name : fine_)
       if (!criticalDt.count(name))

@@ -141,6 +141,9 @@ class Coupling {
   /// What the run loses with a participant that died or hung (e.g. the unit
   /// cells a worker held), for the message that stops the run; empty if nothing.
   virtual std::string describeLoss(const std::string& /*solver*/) const { return {}; }
+  /// Lowers the participants' critical steps by the stiffness the coupling
+  /// adds (penalty springs), after setupReference; what `dt: auto` uses.
+  virtual void limitCriticalSteps(std::map<std::string, double>& /*criticalDt*/) const {}
   /// Adds the coupling's own figures to the run report at its end (the peers'
   /// timings and critical steps are in it already).
   virtual void conclude(RunReport& /*report*/) const {}

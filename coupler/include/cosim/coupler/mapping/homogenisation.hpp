@@ -82,6 +82,16 @@ class PenaltyCoupling {
   const SparseMatrix& pi() const { return pi_; }
   const SparseMatrix& matrix() const { return m_; }
   double epsilon() const { return epsilon_; }
+  /// Bounds on the highest frequency the penalty springs alone give the zone
+  /// nodes and the particles (Gershgorin): omega^2 <= (row sum of |K|) / mass
+  /// with K = eps [M, -M Pi; -Pi^T M, Pi^T M Pi], the stiffness of Eqs.
+  /// 31-32. Masses as the solvers integrate them: FEM's lumped (1 - w)
+  /// weighted nodal masses, w m for particles (Eqs. 25-26); a zero mass is
+  /// skipped (nothing integrates it).
+  struct Frequencies {
+    double nodes = 0.0, particles = 0.0;
+  };
+  Frequencies maxFrequencies(const std::vector<double>& nodeMasses, const std::vector<double>& particleMasses) const;
 
  private:
   SparseMatrix pi_, m_;

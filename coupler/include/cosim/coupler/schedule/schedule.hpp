@@ -42,6 +42,8 @@ class Schedule {
   /// steps (0 = no limit). Throws std::runtime_error with the numbers when
   /// the step is unstable, unless force.
   virtual void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) = 0;
+  /// Whether resolveTimeStep chooses the step (`dt: auto`) rather than checks a given one.
+  virtual bool autoTimeStep() const { return false; }
   virtual std::uint64_t exchanges() const = 0;
   virtual double endTime() const = 0;
   virtual void run(ExchangeDriver& driver) = 0;
