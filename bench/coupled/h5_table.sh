@@ -15,8 +15,8 @@
 #   directory with them in bin/ (default: <repo>/build/bin); e.g. /work/hbin.
 #   VARIANTS: comma-separated subset of mixed,all-pd,all-dem (default: all three).
 #   --coarse: PD spheres at dx = 0.03 m (552 particles each, 16x cheaper:
-#   8x fewer particles, 2x the step dt_PD = 3.125e-5 s, DEM at 6.25e-5 s);
-#   the geometry is unchanged (its gaps allow dx 0.03 too).
+#   8x fewer particles, 2x the step dt_PD = 1.5625e-5 s, m = 2, so DEM keeps
+#   its 3.125e-5 s); the geometry is unchanged (its gaps allow dx 0.03 too).
 #   Extra options go to every `coupler run`, e.g. a short rate measurement:
 #     bench/coupled/h5_table.sh /work/hbin mixed --set schedule.end_time=0.05
 #   WORK=<dir> keeps the runs there (default: a new /tmp/h5-table.XXXXXX).
@@ -44,9 +44,8 @@ for v in ${variants//,/ }; do
   if [ $coarse = 1 ] && [ $v != all-dem ]; then
     nb=$([ $v = mixed ] && echo 8 || echo 16)
     for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done
-    # snapshots every 4000 coarse steps of 2 x 3.125e-5 s = 0.25 s
-    sets+=(--set schedule.dt=3.125e-5 --set solvers.pack.params.output.every=4000
-           --set solvers.dem.params.snapshots.every=4000)
+    # dt_PD 0.45 of the coarse critical step (3.45e-5 s), as the scene's; snapshots stay at 0.25 s
+    sets+=(--set schedule.dt=1.5625e-5 --set schedule.ratio=2)
   fi
   OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/h5/$scene" --out "$out" --no-progress "${sets[@]}" "$@" \
     > "$work/$v.log" 2>&1 || echo "coupler run exited with $? (see $work/$v.log)"

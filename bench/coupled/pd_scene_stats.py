@@ -177,9 +177,9 @@ def h5(run, scale, variant):
     demp = os.path.join(run, "dem.h5")
     snaps = snapshots(pdp)[1] if os.path.exists(pdp) else []
     dsnaps = snapshots(demp)[1] if os.path.exists(demp) else []
-    print("%-8s %-8s %-14s %-10s %-14s %-10s %-14s %-16s %s" % (
-        "paper t", "run t", "PD mean xy cm", "paper", "PD max xy cm", "paper", "PD mean |u_z|", "DEM max xy cm",
-        "DEM mean xy cm"))
+    print("%-8s %-8s %-14s %-10s %-14s %-10s %-14s %-14s %-14s %s" % (
+        "paper t", "run t", "PD mean xy cm", "paper", "PD max xy cm", "paper", "PD mean |u_z|", "PD max |v| m/s",
+        "DEM max xy cm", "DEM mean xy cm"))
     last = max([s[0] for s in snaps] + [s[0] for s in dsnaps] + [0.0])
     for tp in (1.0, 2.0, 3.0):
         cols = []
@@ -187,7 +187,9 @@ def h5(run, scale, variant):
             t, step, g = nearest(snaps, tp / scale)
             u = g["displacement"][:]
             lat = np.hypot(u[:, 0], u[:, 1])
-            cols = [t, "%.2f" % (100 * lat.mean()), "%.2f" % (100 * lat.max()), "%.2f" % (100 * np.abs(u[:, 2]).mean())]
+            speed = np.linalg.norm(g["velocity"][:], axis=1).max()
+            cols = [t, "%.2f" % (100 * lat.mean()), "%.2f" % (100 * lat.max()), "%.2f" % (100 * np.abs(u[:, 2]).mean()),
+                    "%.3g" % speed]
         dem_cols = ["-", "-"]
         if dsnaps and tp / scale <= last + 1e-9:
             td, _, gd = nearest(dsnaps, tp / scale)
@@ -200,12 +202,27 @@ def h5(run, scale, variant):
                 d = np.hypot(p[:, 0] - p0[:, 0], p[:, 1] - p0[:, 1])
                 dem_cols = ["%.2f" % (100 * d.max()), "%.2f" % (100 * d.mean())]
             if not cols:
-                cols = [td, "-", "-", "-"]
+                cols = [td, "-", "-", "-", "-"]
         if not cols:
             print("%-8.4g (not reached; last snapshot t = %.4g s)" % (tp, last))
             continue
-        print("%-8.4g %-8.4g %-14s %-10s %-14s %-10s %-14s %-16s %s" % (
-            tp, cols[0], cols[1], paper[tp][0], cols[2], paper[tp][1], cols[3], dem_cols[0], dem_cols[1]))
+        print("%-8.4g %-8.4g %-14s %-10s %-14s %-10s %-14s %-14s %-14s %s" % (
+            tp, cols[0], cols[1], paper[tp][0], cols[2], paper[tp][1], cols[3], cols[4], dem_cols[0], dem_cols[1]))
+    cpl = os.path.join(run, "coupler.h5")
+    if snaps and os.path.exists(cpl):
+        # energy check: PD kinetic energy and the work done on PD (a blow-up shows as work >> strain energy)
+        with h5py.File(cpl, "r") as f:
+            t = f["/series/time"][:]
+            names = [k for k in f["series"] if "energy" in f["series"][k]]
+            pd_name = [k for k in names if "strain" in f["series"][k]["energy"]]
+            if pd_name:
+                e = f["series"][pd_name[0]]["energy"]
+                ke, se, w = e["kinetic"][:], e["strain"][:], e["external_work"][:]
+                for tp in (0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
+                    if tp <= t[-1] + 1e-9:
+                        i = int(np.argmin(np.abs(t - tp)))
+                        print("  t = %.2f s: PD kinetic %.3g J, strain %.3g J, work done on PD %.3g J" % (
+                            t[i], ke[i], se[i], w[i]))
 
 
 def main():
