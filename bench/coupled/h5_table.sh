@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Scene H5 (Hartmann 2022 Sec. 5.4, pd-sphere-pack): runs the mixed pack
+# configs/h5/pd_sphere_pack.yaml and its all-PD and all-DEM variants
+# (pd_sphere_pack_all_pd.yaml, pd_sphere_pack_all_dem.yaml) with `coupler run`
+# and prints the mean and max norm of the PD particles' displacement in the x-y
+# plane (sideways to the loading along z) at t = 1, 2, 3 s next to the paper's
+# (mixed: mean 2.35, 8.32, 11.21 cm, max 6.07, 34.26, 33.79 cm; all-PD at 3 s:
+# max 32.21, mean 8.64 cm; all-DEM: no sideways motion), the DEM spheres'
+# sideways displacement, each run's wall time and status and the PD
+# node-steps/s (PD particles x PD steps / wall seconds; the issue's target is
+# t = 3 s within 20 minutes).
+#
+# Usage: bench/coupled/h5_table.sh [BIN] [VARIANTS] [--coarse] [coupler run options ...]
+#   BIN: a directory holding coupler, pd_solver and dem_solver, or a build
+#   directory with them in bin/ (default: <repo>/build/bin); e.g. /work/hbin.
+#   VARIANTS: comma-separated subset of mixed,all-pd,all-dem (default: all three).
+#   --coarse: PD spheres at dx = 0.03 m (552 particles each, 16x cheaper:
+#   8x fewer particles, 2x the step dt_PD = 1.5625e-5 s, m = 2, so DEM keeps
+#   its 3.125e-5 s); the geometry is unchanged (its gaps allow dx 0.03 too).
+#   Extra options go to every `coupler run`, e.g. a short rate measurement:
+#     bench/coupled/h5_table.sh /work/hbin mixed --set schedule.end_time=0.05
+#   WORK=<dir> keeps the runs there (default: a new /tmp/h5-table.XXXXXX).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+bin=${1:-$root/build/bin}
+shift || true
+[ -x "$bin/bin/coupler" ] && bin=$bin/bin
+[ -x "$bin/coupler" ] || { echo "no coupler in $bin (nor $bin/bin)" >&2; exit 2; }
+variants=mixed,all-pd,all-dem
+if [ $# -gt 0 ] && [[ "$1" != -* ]]; then variants=$1; shift; fi
+coarse=0
+if [ "${1:-}" = "--coarse" ]; then coarse=1; shift; fi
+work=${WORK:-$(mktemp -d /tmp/h5-table.XXXXXX)}
+mkdir -p "$work"
+for v in ${variants//,/ }; do
+  case $v in
+    mixed) scene=pd_sphere_pack.yaml; stats=h5 ;;
+    all-pd) scene=pd_sphere_pack_all_pd.yaml; stats=h5-all-pd ;;
+    all-dem) scene=pd_sphere_pack_all_dem.yaml; stats=h5-all-dem ;;
+    *) echo "unknown variant '$v' (mixed, all-pd, all-dem)" >&2; exit 2 ;;
+  esac
+  out=$work/$v
+  sets=()
+  if [ $coarse = 1 ] && [ $v != all-dem ]; then
+    nb=$([ $v = mixed ] && echo 8 || echo 16)
+    for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done
+    # dt_PD 0.45 of the coarse critical step (3.45e-5 s), as the scene's; snapshots stay at 0.25 s
+    sets+=(--set schedule.dt=1.5625e-5 --set schedule.ratio=2)
+  fi
+  OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/h5/$scene" --out "$out" --no-progress "${sets[@]}" "$@" \
+    > "$work/$v.log" 2>&1 || echo "coupler run exited with $? (see $work/$v.log)"
+  echo "== $v"
+  /usr/bin/python3 "$root/bench/coupled/pd_scene_stats.py" "$stats" "$out" --label "h5 $v"
+done
+echo "runs kept in $work"
