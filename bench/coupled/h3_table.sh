@@ -19,10 +19,9 @@
 #   WORK=<dir> keeps the run there (default: a new /tmp/h3-table.XXXXXX).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-bin=${1:-$root/build/bin}
+source "$root/bench/coupled/scene_run.sh"
+bin=$(solver_bin "${1:-$root/build/bin}") || exit 2
 shift || true
-[ -x "$bin/bin/coupler" ] && bin=$bin/bin
-[ -x "$bin/coupler" ] || { echo "no coupler in $bin (nor $bin/bin)" >&2; exit 2; }
 scale=10
 v=0.1
 guides=1
@@ -51,8 +50,4 @@ if [ $guides = 0 ]; then
 fi
 work=${WORK:-$(mktemp -d /tmp/h3-table.XXXXXX)}
 mkdir -p "$work"
-out=$work/h3
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/h3/pd_cube.yaml" --out "$out" --no-progress \
-  "${sets[@]}" "$@" > "$work/h3.log" 2>&1 || echo "coupler run exited with $? (see $work/h3.log)"
-/usr/bin/python3 "$root/bench/coupled/pd_scene_stats.py" h3 "$out" --time-scale "$scale" --label "h3 (x$scale speed)"
-echo "run kept in $out"
+run_pd_scene h3 "$root/configs/h3/pd_cube.yaml" "$scale" "${sets[@]}" "$@"

@@ -14,10 +14,9 @@
 #   WORK=<dir> keeps the run there (default: a new /tmp/h4-table.XXXXXX).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-bin=${1:-$root/build/bin}
+source "$root/bench/coupled/scene_run.sh"
+bin=$(solver_bin "${1:-$root/build/bin}") || exit 2
 shift || true
-[ -x "$bin/bin/coupler" ] && bin=$bin/bin
-[ -x "$bin/coupler" ] || { echo "no coupler in $bin (nor $bin/bin)" >&2; exit 2; }
 scale=10
 sets=()
 if [ "${1:-}" = "--paper-speed" ]; then
@@ -30,8 +29,4 @@ if [ "${1:-}" = "--paper-speed" ]; then
 fi
 work=${WORK:-$(mktemp -d /tmp/h4-table.XXXXXX)}
 mkdir -p "$work"
-out=$work/h4
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/h4/pd_squeeze.yaml" --out "$out" --no-progress \
-  "${sets[@]}" "$@" > "$work/h4.log" 2>&1 || echo "coupler run exited with $? (see $work/h4.log)"
-/usr/bin/python3 "$root/bench/coupled/pd_scene_stats.py" h4 "$out" --time-scale "$scale" --label "h4 (x$scale speed)"
-echo "run kept in $out"
+run_pd_scene h4 "$root/configs/h4/pd_squeeze.yaml" "$scale" "${sets[@]}" "$@"

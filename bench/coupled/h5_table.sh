@@ -22,10 +22,9 @@
 #   WORK=<dir> keeps the runs there (default: a new /tmp/h5-table.XXXXXX).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-bin=${1:-$root/build/bin}
+source "$root/bench/coupled/scene_run.sh"
+bin=$(solver_bin "${1:-$root/build/bin}") || exit 2
 shift || true
-[ -x "$bin/bin/coupler" ] && bin=$bin/bin
-[ -x "$bin/coupler" ] || { echo "no coupler in $bin (nor $bin/bin)" >&2; exit 2; }
 variants=mixed,all-pd,all-dem
 if [ $# -gt 0 ] && [[ "$1" != -* ]]; then variants=$1; shift; fi
 coarse=0
