@@ -19,3 +19,8 @@ struct UnitCellResults {
   unbalancedForceIndices @4 :List(Float64); # Liu Eq. 57
   relaxationSteps @5 :List(UInt32);
 }
+
+# The NamedArray every worker reply carries (Liu 2016 Eqs. 63-66): [relaxation
+# dt, Eq. 63 critical step, omega_max, xi, omega_n, omega_theta] of its
+# tightest cell; the gmh coupling reports the fine/coarse step relation from it.
+const fineTimeStepArray :Text = "fine_time_step";

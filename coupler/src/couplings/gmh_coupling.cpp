@@ -196,7 +196,7 @@ class GmhCoupling final : public Coupling {
   /// The tightest fine step any worker reported over the run (Liu Eqs. 63-64):
   /// [relaxation dt, dt_cr, omega_max, xi, omega_n, omega_theta].
   void noteFineTimeStep(proto::NamedArray::Reader a) {
-    if (std::string(a.getName().cStr()) != "fine_time_step" || a.getValues().size() != 6) return;
+    if (a.getName() != proto::FINE_TIME_STEP_ARRAY || a.getValues().size() != 6) return;
     const auto v = wire::view(a.getValues());
     if (v[1] > 0.0 && (fine_[1] == 0.0 || v[1] < fine_[1])) std::copy(v.begin(), v.end(), fine_.begin());
     if (fine_[0] == 0.0) fine_[0] = v[0];

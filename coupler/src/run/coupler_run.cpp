@@ -406,8 +406,8 @@ class CouplerRun final : public ExchangeDriver {
     if (fresh) energySource_.erase(name);
     else if (last != latest_.end() && !energySource_.count(name)) energySource_.emplace(name, std::move(last->second));
     latest_.insert_or_assign(name, std::move(reply.message));
-    outputs_[name] = outputsOf(latest_.at(name));
-    if (fresh) energies_.insert_or_assign(name, energiesOf(latest_.at(name)));
+    if (fresh) keepViews(name);
+    else outputs_[name] = outputsOf(latest_.at(name));
   }
 
   /// Energies can cost a sweep over a solver's model: ask for them only when

@@ -181,7 +181,7 @@ void UnitCellWorker::writeFineTimeStep(proto::CouplingData::Builder outputs) con
     if (f.criticalDt > 0.0 && (tightest.criticalDt == 0.0 || f.criticalDt < tightest.criticalDt)) tightest = f;
   }
   auto a = outputs.initArrays(1)[0];
-  a.setName(kFineTimeStepArray);
+  a.setName(proto::FINE_TIME_STEP_ARRAY);  // gmh.capnp
   a.setComponents(6);
   auto v = wire::view(a.initValues(6));
   const double values[6] = {relax_.dt, tightest.criticalDt, tightest.omegaMax, tightest.dampingFraction,

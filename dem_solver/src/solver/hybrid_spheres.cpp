@@ -151,10 +151,9 @@ void HybridSpheres::beginInterval() {
 
 void HybridSpheres::accumulate(const Particles& p) {
   // p.f of a driven sphere is its contact and wall reaction only (no body force).
-  for (std::size_t k = 0; k < index_.size(); ++k) {
-    impulse_[k] += p.f[index_[k]];
-    positionSum_[k] += p.x[index_[k]];
-  }
+  for (std::size_t k = 0; k < index_.size(); ++k) impulse_[k] += p.f[index_[k]];
+  if (!wantStiffness_) return;  // the mean position goes out with the stiffness only
+  for (std::size_t k = 0; k < index_.size(); ++k) positionSum_[k] += p.x[index_[k]];
 }
 
 void HybridSpheres::endInterval(std::uint32_t steps) {

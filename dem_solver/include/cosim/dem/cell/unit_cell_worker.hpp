@@ -33,10 +33,6 @@
 
 namespace cosim::dem {
 
-/// The array every reply of a worker carries: [relaxation dt, Liu Eq. 63
-/// critical step, omega_max, xi, omega_n, omega_theta] of its tightest cell.
-inline constexpr const char* kFineTimeStepArray = "fine_time_step";
-
 class UnitCellWorker {
  public:
   /// From params.unit_cells; every other params key is refused (a worker holds only cells).

@@ -37,7 +37,7 @@ class HybridSpheres {
   std::size_t size() const { return ids_.size(); }
   /// Starts a new interval of contact-force sums.
   void beginInterval();
-  /// Adds this step's force on (and position of) every hybrid sphere.
+  /// Adds this step's force on every hybrid sphere (and its position, when asked for).
   void accumulate(const Particles& p);
   /// Ends the interval of `steps` sub-steps: the returned forces are the mean.
   void endInterval(std::uint32_t steps);
