@@ -254,8 +254,13 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct, cholmod, ldlt or cg");
     if (integratorType_ == "newmark") {
       NewmarkOptions o;
-      o.beta = in.number("beta", o.beta);
       o.gamma = in.number("gamma", o.gamma);
+      // Without beta, the unconditionally stable beta = (gamma + 1/2)^2 / 4 with the
+      // most high-frequency dissipation for that gamma (Hughes, The Finite Element Method, 1987, Ch. 9): 1/4
+      // for the trapezoidal rule. gamma > 1/2 damps the modes the step cannot
+      // resolve; the scheme is then first order, its error in a resolved mode
+      // of order (gamma - 1/2) omega dt.
+      o.beta = in.number("beta", 0.25 * (o.gamma + 0.5) * (o.gamma + 0.5));
       const std::string mass = in.text("mass", "consistent");
       if (mass != "consistent" && mass != "lumped") in.fail(in.get("mass"), in.path() + ".mass must be consistent or lumped");
       o.lumpedMass = mass == "lumped";
