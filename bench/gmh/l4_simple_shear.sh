@@ -6,6 +6,9 @@
 # the pool-mean porosity and coordination against the nominal shear strain,
 # and the shear band (bench/gmh/l4_shear_band.py, /usr/bin/python3 with h5py).
 # Usage: bench/gmh/l4_simple_shear.sh [spheres per cell (500)] [coarse steps (2000)] [band at gamma (0.12)]
+#                                     [stop after (coarse steps)]
+# The top's speed gives 20 % over the coarse steps; "stop after" ends the run
+# sooner at that same speed (bench/gmh/l4_cost_ratio.sh times the first 1 %).
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
 # Environment: COSIM_BIN (default build/bin), L4_WORK (default a fresh /tmp dir).
 set -euo pipefail
@@ -14,6 +17,7 @@ bin=${COSIM_BIN:-$root/build/bin}
 count=${1:-500}
 steps=${2:-2000}
 at=${3:-0.12}
+stop=${4:-$steps}
 work=${L4_WORK:-$(mktemp -d /tmp/gmh-l4.XXXXXX)}
 mkdir -p "$work"
 t0=$(date +%s)
@@ -23,7 +27,7 @@ t1=$(date +%s)
 # 20 % nominal shear strain over the run whatever the step count (0.59 m/s at 2000 steps).
 speed=$(python3 -c "import sys; print(0.2 * 0.118 / (int(sys.argv[1]) * 2e-5))" "$steps")
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$root/configs/gmh/l4_simple_shear.yaml" --out "$work/run" \
-  --no-progress --set "schedule.coarse_steps=$steps" \
+  --no-progress --set "schedule.coarse_steps=$stop" \
   --set "solvers.block.params.boundary[1].value=$speed" \
   --set "solvers.block.params.initial_velocity={gradient: {x: [0, $(python3 -c "import sys; print(float(sys.argv[1]) / 0.118)" "$speed"), 0]}}" \
   --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
