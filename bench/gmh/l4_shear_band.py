@@ -20,13 +20,9 @@ Usage: l4_shear_band.py RUN_DIR [--at 0.12] [--weak-row 9] [--every 10]
 import argparse
 import sys
 
-import h5py
 import numpy as np
 
-
-def snapshots(block):
-    steps = sorted(int(k) for k in block["snapshots"].keys())
-    return steps, [block["snapshots"][str(s)] for s in steps]
+from gmh_run_files import open_h5, series_row, snapshots
 
 
 def node_layers(coords):
@@ -46,12 +42,12 @@ def main():
     ap.add_argument("--weak-row", type=int, default=9)
     ap.add_argument("--every", type=int, default=10, help="print every N-th snapshot")
     a = ap.parse_args()
-    block = h5py.File(f"{a.run}/block.h5", "r")
+    block = open_h5(f"{a.run}/block.h5")
     coords = block["mesh/coordinates"][()]
     ys, layers = node_layers(coords)
     height = ys[-1] - ys[0]
     steps, snaps = snapshots(block)
-    series = h5py.File(f"{a.run}/coupler.h5", "r")["series"]
+    series = open_h5(f"{a.run}/coupler.h5")["series"]
     porosity = series["cells/mean_porosity"][()]
     coordination = series["cells/mean_coordination"][()]
 
@@ -62,7 +58,7 @@ def main():
         gamma = disp[layers[-1], 0].mean() / height
         tau = stress[:, 3].mean()
         p = -stress[:, :3].sum(axis=1).mean() / 3.0
-        k = min(s, len(porosity) - 1)  # series row k: the cells after coarse step k (row 0: setup)
+        k = series_row(s, len(porosity))
         rows.append((s, gamma, tau, p, porosity[k], coordination[k], row_shear(disp, ys, layers)))
     if not rows:
         sys.exit(f"{a.run}/block.h5 has no snapshots")

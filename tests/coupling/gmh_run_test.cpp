@@ -88,6 +88,34 @@ TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
   EXPECT_GT(pressure.back() - pressure.front(), 2e3);
   EXPECT_LT(pressure.back() - pressure.front(), 30e3);
   for (std::size_t k = 1; k < jobs.size(); ++k) EXPECT_EQ(jobs[k], 2.0);
+  // Per-cell series: one row per gather, columns in cell id order; their means
+  // are the pool means, and each cell's own pressure rises every step.
+  EXPECT_EQ(h5.shape("/series/cells/cell_ids"), (std::vector<std::size_t>{21, 2}));
+  EXPECT_EQ(h5.shape("/series/cells/cell_porosity"), (std::vector<std::size_t>{21, 2}));
+  EXPECT_EQ(h5.shape("/series/cells/cell_coordination"), (std::vector<std::size_t>{21, 2}));
+  EXPECT_EQ(h5.shape("/series/cells/cell_stress"), (std::vector<std::size_t>{21, 18}));
+  const auto ids = h5.readArray("/series/cells/cell_ids");
+  const auto porosity = h5.readArray("/series/cells/cell_porosity");
+  const auto coordination = h5.readArray("/series/cells/cell_coordination");
+  const auto stress = h5.readArray("/series/cells/cell_stress");
+  const auto meanPorosity = h5.readArray("/series/cells/mean_porosity");
+  const auto meanCoordination = h5.readArray("/series/cells/mean_coordination");
+  const auto cellPressure = [&](std::size_t row, std::size_t c) {
+    const double* sigma = &stress[18 * row + 9 * c];
+    return -(sigma[0] + sigma[4] + sigma[8]) / 3.0;
+  };
+  for (std::size_t k = 0; k < pressure.size(); ++k) {
+    EXPECT_EQ(ids[2 * k], 0.0);
+    EXPECT_EQ(ids[2 * k + 1], 1.0);
+    EXPECT_NEAR(0.5 * (porosity[2 * k] + porosity[2 * k + 1]), meanPorosity[k], 1e-15);
+    EXPECT_NEAR(0.5 * (coordination[2 * k] + coordination[2 * k + 1]), meanCoordination[k], 1e-12);
+    EXPECT_NEAR(0.5 * (cellPressure(k, 0) + cellPressure(k, 1)), pressure[k], 1e-9 * pressure[k]);
+    EXPECT_GT(porosity[2 * k], 0.2);
+    EXPECT_LT(porosity[2 * k], 0.5);
+    EXPECT_GT(coordination[2 * k + 1], 3.0);
+    if (k == 0) continue;
+    for (std::size_t c = 0; c < 2; ++c) EXPECT_GT(cellPressure(k, c), cellPressure(k - 1, c)) << "cell " << c << " step " << k;
+  }
   // The time-step relation of Liu Eqs. 63-66 in the run report.
   std::ifstream in(dir_ / "run" / "run_report.json");
   const auto figures = nlohmann::json::parse(in)["figures"];

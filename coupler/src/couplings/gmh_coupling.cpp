@@ -244,9 +244,17 @@ class GmhCoupling final : public Coupling {
     gathered_.steps.insert(gathered_.steps.end(), steps.begin(), steps.end());
   }
 
-  /// Pool statistics per coarse step: what the stability diagnostics look at.
-  void record(const ExchangeContext& ctx) const {
+  /// Pool statistics per coarse step: what the stability diagnostics look at;
+  /// then every cell's own results (one row per coarse step, columns in cell
+  /// id order): what a scene that follows one quadrature point reads (L3's
+  /// element 9, Liu 2016 Fig. 8).
+  void record(const ExchangeContext& ctx) {
     if (!ctx.series || gathered_.ids.empty()) return;
+    recordPool(ctx);
+    recordCells(ctx);
+  }
+
+  void recordPool(const ExchangeContext& ctx) const {
     const auto n = static_cast<double>(gathered_.ids.size());
     double porosity = 0.0, coordination = 0.0, maxIndex = 0.0, maxSteps = 0.0, pressure = 0.0;
     for (std::size_t k = 0; k < gathered_.ids.size(); ++k) {
@@ -264,6 +272,30 @@ class GmhCoupling final : public Coupling {
     ctx.series->append(name() + "/max_relaxation_steps", maxSteps);
   }
 
+  /// cell_ids (the column order), cell_porosity, cell_coordination, and
+  /// cell_stress (9 values per cell, row-major, the corotational Cauchy stress
+  /// the cell returned, Eq. 44b, tension positive).
+  void recordCells(const ExchangeContext& ctx) {
+    const std::size_t n = gathered_.ids.size();
+    order_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) order_[k] = k;
+    std::sort(order_.begin(), order_.end(),
+              [&](std::size_t a, std::size_t b) { return gathered_.ids[a] < gathered_.ids[b]; });
+    cellIds_.resize(n), cellPorosity_.resize(n), cellCoordination_.resize(n), cellStress_.resize(9 * n);
+    for (std::size_t c = 0; c < n; ++c) {
+      const std::size_t k = order_[c];
+      cellIds_[c] = static_cast<double>(gathered_.ids[k]);
+      cellPorosity_[c] = gathered_.porosities[k];
+      cellCoordination_[c] = gathered_.coordination[k];
+      std::copy_n(gathered_.stresses.begin() + static_cast<std::ptrdiff_t>(9 * k), 9,
+                  cellStress_.begin() + static_cast<std::ptrdiff_t>(9 * c));
+    }
+    ctx.series->append(name() + "/cell_ids", cellIds_);
+    ctx.series->append(name() + "/cell_porosity", cellPorosity_);
+    ctx.series->append(name() + "/cell_coordination", cellCoordination_);
+    ctx.series->append(name() + "/cell_stress", cellStress_);
+  }
+
   std::string fem_;
   std::vector<std::string> workers_;
   double radius_ = 0.0;  // nonlocal interaction radius R; 0: local
@@ -275,6 +307,8 @@ class GmhCoupling final : public Coupling {
   std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
   std::map<std::string, WorkerJobs> jobs_;
   GatheredResults gathered_;
+  std::vector<std::size_t> order_;  // recordCells: gathered index of each cell, by id
+  std::vector<double> cellIds_, cellPorosity_, cellCoordination_, cellStress_;
   std::array<double, 6> fine_{};  // see noteFineTimeStep
 };
 

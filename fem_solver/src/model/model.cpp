@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <exception>
 #include <sstream>
 
@@ -54,11 +55,19 @@ void addEnergies(const std::vector<ElementEnergy>& parts, ElementEnergy& total) 
 }  // namespace
 
 double Prescribed::displacement(double t) const {
+  if (frequency > 0.0) {
+    const double omega = 2.0 * std::numbers::pi * frequency;
+    return kind == Kind::velocity ? amplitude * (1.0 - std::cos(omega * t)) / omega : amplitude * std::sin(omega * t);
+  }
   if (kind == Kind::velocity) return amplitude * t;
   return ramp > 0.0 ? amplitude * std::min(t / ramp, 1.0) : amplitude;
 }
 
 double Prescribed::velocity(double t) const {
+  if (frequency > 0.0) {
+    const double omega = 2.0 * std::numbers::pi * frequency;
+    return kind == Kind::velocity ? amplitude * std::sin(omega * t) : amplitude * omega * std::cos(omega * t);
+  }
   if (kind == Kind::velocity) return amplitude;
   return (ramp > 0.0 && t < ramp) ? amplitude / ramp : 0.0;
 }
@@ -198,12 +207,15 @@ void Model::scatter(std::size_t e, const Vec24& fe, std::vector<double>& f) cons
     for (int i = 0; i < 3; ++i) f[3 * h[static_cast<std::size_t>(a)] + static_cast<std::size_t>(i)] += fe(3 * a + i);
 }
 
-void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp) {
+void Model::prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp,
+                      double frequency) {
   if (node >= numNodes() || direction < 0 || direction > 2)
     throw InputError("prescribed dof out of range: node " + std::to_string(node));
   if (!std::isfinite(amplitude)) throw InputError("prescribed value for node " + std::to_string(node) + " is not finite");
+  if (!std::isfinite(frequency) || frequency < 0.0)
+    throw InputError("prescribed frequency for node " + std::to_string(node) + " must be finite and >= 0");
   const std::size_t dof = 3 * node + static_cast<std::size_t>(direction);
-  Prescribed p{dof, kind, amplitude, ramp};
+  Prescribed p{dof, kind, amplitude, ramp, frequency};
   if (fixed_[dof]) {
     for (auto& q : prescribed_)
       if (q.dof == dof) q = p;
@@ -290,7 +302,7 @@ void Model::rebuildDofMap() const {
   for (std::size_t d = 0; d < nd; ++d) {
     Jump total;
     root[d] = find(d, total);
-    if (root[d] != d) slaves_.push_back({d, root[d], Prescribed{d, total.kind, total.amplitude, total.ramp}});
+    if (root[d] != d) slaves_.push_back({d, root[d], Prescribed{d, total.kind, total.amplitude, total.ramp, 0.0}});
   }
   int next = 0;
   for (std::size_t d = 0; d < nd; ++d)

@@ -185,11 +185,16 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
         const std::string kind = b.text("kind", "displacement");
         if (kind != "displacement" && kind != "velocity") b.fail(b.get("kind"), key + ".kind must be displacement or velocity");
         const double value = b.number("value", 0.0), ramp = b.number("ramp", 0.0);
+        // frequency: a sinusoidal time function (cyclic loading, Liu 2016 Sec. 3.3) instead of the ramp.
+        const double frequency = b.number("frequency", 0.0);
+        if (frequency < 0.0) b.fail(b.get("frequency"), key + ".frequency must be >= 0 (Hz)");
+        if (frequency > 0.0 && b.has("ramp"))
+          b.fail(b.get("ramp"), key + ".ramp cannot be combined with frequency (the sine starts from zero displacement)");
         b.finish();
         for (Index n : nodes)
           for (int d : dirs)
             model_->prescribe(n, d, kind == "velocity" ? Prescribed::Kind::velocity : Prescribed::Kind::displacement,
-                              value, ramp);
+                              value, ramp, frequency);
       }
     }
     if (p.has("periodic")) readPeriodic(p);

@@ -19,12 +19,18 @@ class SparseSystem;
 
 /// A prescribed degree of freedom: displacement value(t) = amplitude * min(t / ramp, 1)
 /// (ramp 0 = applied at once), or a constant velocity (u = amplitude * t).
+/// frequency > 0 makes the time function a sine instead (cyclic loading, e.g.
+/// the sinusoidal end displacement of Liu 2016 Sec. 3.3): kind displacement
+/// u = amplitude sin(2 pi f t), v = u'; kind velocity v = amplitude sin(2 pi f t),
+/// u = its integral from 0, amplitude (1 - cos(2 pi f t)) / (2 pi f). Both start
+/// from u = 0 at t = 0; ramp is then unused (refused together in the scene).
 struct Prescribed {
   enum class Kind { displacement, velocity };
   std::size_t dof = 0;
   Kind kind = Kind::displacement;
   double amplitude = 0.0;
   double ramp = 0.0;
+  double frequency = 0.0;  // [Hz]; 0: the ramp / constant-rate functions above
   double displacement(double t) const;
   double velocity(double t) const;
 };
@@ -61,7 +67,8 @@ class Model {
   std::size_t numDofs() const { return 3 * mesh_.numNodes(); }
 
   // --- boundary conditions ---------------------------------------------------
-  void prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp = 0.0);
+  void prescribe(Index node, int direction, Prescribed::Kind kind, double amplitude, double ramp = 0.0,
+                 double frequency = 0.0);
   const std::vector<Prescribed>& prescribed() const { return prescribed_; }
   bool isFixed(std::size_t dof) const { return fixed_[dof] != 0; }
   /// Free-dof numbering: index into the reduced system, or -1 when prescribed.

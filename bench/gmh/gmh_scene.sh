@@ -1,0 +1,24 @@
+# Shell steps shared by the GMH scene scripts (l3_wave_column.sh,
+# l4_simple_shear.sh); source it after setting root, bin and work.
+# Workers run one OpenMP thread each unless OMP_NUM_THREADS is set (two
+# 2-thread workers would share the two cores one worker uses).
+
+# gmh_prepare_cell COUNT [dem_prepare_cell options...]: $work/cell.{ckpt,h5} (seed 1).
+gmh_prepare_cell() {
+  local count=$1
+  shift
+  "$bin/dem_prepare_cell" --out "$work/cell" --count "$count" --seed 1 "$@" > "$work/prepare.log"
+  grep -E "^prepared" "$work/prepare.log" || true
+}
+
+# gmh_run SCENE [coupler run options...]: runs the scene into $work/run, log in
+# $work/run.log; a run that stops early (a cell over its relaxation budget) is
+# reported and its output kept for the analysis. Prints the wall time, the
+# workers' share and Liu's time-step figures (Eqs. 63-66) of the run report.
+gmh_run() {
+  local scene=$1
+  shift
+  OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$scene" --out "$work/run" --no-progress "$@" \
+    > "$work/run.log" 2>&1 || { echo "coupler run stopped early (see $work/run.log):"; grep -m1 "error" "$work/run.log" | cut -c1-400; }
+  grep -E "wall time|cells_a|cells_b|figure +(fine|coarse|time_step)" "$work/run.log" || true
+}
