@@ -18,9 +18,11 @@ shift || true
 "$root/build/bin/coupler" sweep "$root/configs/c1/cantilever_surface.yaml" \
   --set schedule.dt=6.43e-5,1.286e-4,3.215e-4,6.43e-4,1.286e-3 \
   --set solvers.beam.params.integrator.gamma=0.5,0.6 --out "$out" "$@" || true
-/usr/bin/python3 - "$out/sweep.csv" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
+/usr/bin/python3 - "$root/bench/coupled" "$out/sweep.csv" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[1])
+from sweep_table import cell, rows as sweep_rows
+rows = sweep_rows(sys.argv[2])
 dt_key, gamma_key = "schedule.dt", "solvers.beam.params.integrator.gamma"
 ref = [r for r in rows if float(r[dt_key]) == 6.43e-5 and float(r[gamma_key]) == 0.5 and r["status"] == "completed"]
 ref_err = float(ref[0]["error_value"]) if ref else None
@@ -32,9 +34,7 @@ for r in rows:
     err = float(r["error_value"]) if r.get("error_value") else float("nan")
     rel = (err / ref_err - 1.0) if ref_err else float("nan")
     done = r["status"] == "completed" and r.get("all_left_beam") == "1"
-    def f(key, fmt="{:.4g}"):
-        v = r.get(key, "")
-        return fmt.format(float(v)) if v not in ("", None) else "-"
+    f = lambda key, fmt="{:.4g}": cell(r, key, fmt)
     print(f"{dt:>9.4g} {6.43e-3 / dt:>6.0f} {gamma:>5} {err:>9.5f} {rel:>+11.1%} {f('max_total_energy_J'):>9} "
           f"{f('coupled_until_s'):>14} {f('wall_s', '{:.1f}'):>8} {f('coupling_overhead_share', '{:.0%}'):>8} "
           f"{r['status']}")

@@ -13,17 +13,17 @@ out=${1:-$root/runs/c1-table}
 shift || true
 "$root/build/bin/coupler" sweep "$root/configs/c1/cantilever_surface.yaml" \
   --set couplings.top.width=0,2d,4d,6d,10d,15d --out "$out" "$@" || true
-/usr/bin/python3 - "$out/sweep.csv" <<'PY'
-import csv, sys
+/usr/bin/python3 - "$root/bench/coupled" "$out/sweep.csv" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[1])
+from sweep_table import cell, rows as sweep_rows
 paper = {"0": "about 0.12", "10d": "below 0.01", "15d": "no gain over 10d"}
-rows = list(csv.DictReader(open(sys.argv[1])))
+rows = sweep_rows(sys.argv[2])
 print(f"{'c':>5} {'err [m]':>10} {'paper err':>18} {'drift 0 [m]':>12} {'drift 1 [m]':>12} "
       f"{'max E [J]':>10} {'coupled to [s]':>14} {'wall [s]':>9} {'overhead':>9} status")
 for r in rows:
     c = r["couplings.top.width"]
-    def f(key, fmt="{:.4g}"):
-        v = r.get(key, "")
-        return fmt.format(float(v)) if v not in ("", None) else "-"
+    f = lambda key, fmt="{:.4g}": cell(r, key, fmt)
     print(f"{c:>5} {f('error_value'):>10} {paper.get(c, '-'):>18} {f('lateral_drift_0_m'):>12} "
           f"{f('lateral_drift_1_m'):>12} {f('max_total_energy_J'):>10} {f('coupled_until_s'):>14} "
           f"{f('wall_s', '{:.1f}'):>9} {f('coupling_overhead_share', '{:.0%}'):>9} {r['status']}")
