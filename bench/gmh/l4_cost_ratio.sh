@@ -23,7 +23,8 @@ work=${L4_WORK:-$(mktemp -d /tmp/gmh-l4-cost.XXXXXX)}
 mkdir -p "$work"
 export L4_WORK=$work COSIM_BIN=$bin
 "$root/bench/gmh/l4_simple_shear.sh" "$count" 2000 0.12 "$steps" > "$work/gmh.log" 2>&1 || true
-loop=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['wall_s']['exchange_loop'])" "$work/run/run_report.json")
+source "$root/bench/gmh/gmh_scene.sh"
+loop=$(gmh_exchange_loop "$work/run")
 strain=$(/usr/bin/python3 -c "import sys; print(int(sys.argv[1]) * 1e-4)" "$steps")
 OMP_NUM_THREADS=2 "$bin/l4_direct_dem" --cell "$work/cell.ckpt" --weak "$work/cell_weak.ckpt" --strain "$strain" \
   > "$work/direct.log" 2>&1

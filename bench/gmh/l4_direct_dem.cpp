@@ -47,25 +47,14 @@ std::array<int, 3> triple(const std::string& key, const std::string& text) {
   return t;
 }
 
-/// Appends the spheres of `from` shifted by `offset` (kinematics, sizes, materials).
-void appendShifted(cosim::dem::Particles& to, const cosim::dem::Particles& from, const Vec3& offset) {
-  for (std::size_t i = 0; i < from.size(); ++i) {
-    to.x.push_back(from.x[i] + offset);
-    to.v.push_back(from.v[i]);
-    to.omega.push_back(from.omega[i]);
-    to.q.push_back(from.q[i]);
-    to.f.push_back({});
-    to.torque.push_back({});
-    to.fExt.push_back({});
-    to.radius.push_back(from.radius[i]);
-    to.mass.push_back(from.mass[i]);
-    to.invMass.push_back(from.invMass[i]);
-    to.inertia.push_back(from.inertia[i]);
-    to.invInertia.push_back(from.invInertia[i]);
-    to.weight.push_back(from.weight[i]);
-    to.material.push_back(from.material[i]);
-    to.driven.push_back(from.driven[i]);
-    to.id.push_back(static_cast<std::uint32_t>(to.id.size()));
+/// Appends the spheres of `from` shifted by `offset`, with their materials and kinematics.
+void appendShifted(DemSystem& to, const DemSystem& from, const Vec3& offset) {
+  const cosim::dem::Particles& p = from.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const std::size_t k = to.particles.add(p.x[i] + offset, p.radius[i], from.materials[p.material[i]].density, p.material[i]);
+    to.particles.v[k] = p.v[i];
+    to.particles.omega[k] = p.omega[i];
+    to.particles.q[k] = p.q[i];
   }
 }
 
@@ -79,7 +68,7 @@ DemSystem tiledSample(const DemSystem& cell, const DemSystem* weak, const std::a
     for (int j = 0; j < n[1]; ++j)
       for (int i = 0; i < n[0]; ++i) {
         const bool isWeak = weak && std::array<int, 3>{i, j, k} == weakTile;
-        appendShifted(sample.particles, isWeak ? weak->particles : cell.particles,
+        appendShifted(sample, isWeak ? *weak : cell,
                       cell.cell.shift({static_cast<std::int8_t>(i), static_cast<std::int8_t>(j), static_cast<std::int8_t>(k)}));
       }
   for (std::size_t c = 0; c < 3; ++c)

@@ -55,12 +55,12 @@ worker() {  # name first count
 }
 scene "$(worker w0 0 4)" "w0" > "$work/one.yaml"
 scene "$(worker w0 0 2; worker w1 2 2)" "w0, w1" > "$work/two.yaml"
-loop() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['wall_s']['exchange_loop'])" "$1/run_report.json"; }
+source "$root/bench/gmh/gmh_scene.sh"
 t1=; t2=
 for r in $(seq "$repeats"); do  # alternate, so a burst of outside load hits both alike
   "$root/build/bin/coupler" run "$work/one.yaml" --out "$work/one$r" --no-progress > "$work/one$r.log" 2>&1
   "$root/build/bin/coupler" run "$work/two.yaml" --out "$work/two$r" --no-progress > "$work/two$r.log" 2>&1
-  t1="$t1 $(loop "$work/one$r")"; t2="$t2 $(loop "$work/two$r")"
+  t1="$t1 $(gmh_exchange_loop "$work/one$r")"; t2="$t2 $(gmh_exchange_loop "$work/two$r")"
 done
 best() { python3 -c "import sys; print(min(map(float, sys.argv[1:])))" $1; }
 t1=$(best "$t1"); t2=$(best "$t2")
