@@ -1,4 +1,4 @@
-"""Readers shared by the GMH scene analyses (bench/gmh/l3_*.py, l4_*.py).
+"""Readers shared by the GMH scene analyses (bench/gmh/l3_*.py, l4_*.py, l5_*.py).
 
 A finished (or stopped) GMH run directory holds the FEM snapshots (the file
 the scene's `output.file` names: /mesh/{coordinates, topology}, and per

@@ -1,4 +1,4 @@
-# Shell steps shared by the GMH scene scripts (l3_wave_column.sh, pool_efficiency.sh, l4_cost_ratio.sh,
+# Shell steps shared by the GMH scene scripts (l3_wave_column.sh, pool_efficiency.sh, l4_cost_ratio.sh, l5_biaxial.sh,
 # l4_simple_shear.sh); source it after setting root, bin and work.
 # Workers run one OpenMP thread each unless OMP_NUM_THREADS is set (two
 # 2-thread workers would share the two cores one worker uses).
@@ -20,7 +20,7 @@ gmh_run() {
   shift
   OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bin/coupler" run "$scene" --out "$work/run" --no-progress "$@" \
     > "$work/run.log" 2>&1 || { echo "coupler run stopped early (see $work/run.log):"; grep -m1 "error" "$work/run.log" | cut -c1-400; }
-  grep -E "wall time|cells_a|cells_b|figure +(fine|coarse|time_step)" "$work/run.log" || true
+  grep -E "^  (wall time|cells_a|cells_b|figure +(fine|coarse|time_step))" "$work/run.log" || true
 }
 
 # gmh_exchange_loop RUN_DIR: the wall time of the run's exchange loop [s] (run_report.json).

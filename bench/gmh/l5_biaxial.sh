@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Scene L5, reduced (Liu, Sun, Fish 2016 Sec. 3.5): prepares an undamped unit
+# cell (dem_prepare_cell --damping 0, Liu's Table I for this section), runs
+# configs/gmh/l5_biaxial.yaml on three meshes, each local and nonlocal
+# (nonlocal: {radius: 6.75e-3}, Liu's 2R = 13.5 mm), mesh by mesh, and prints
+# the stress-strain curves, the band widths and the post-peak spread of the
+# meshes per mode (bench/gmh/l5_biaxial.py, /usr/bin/python3 with h5py and
+# matplotlib; figure l5_biaxial.png in the work folder).
+# Usage: bench/gmh/l5_biaxial.sh [spheres per cell (200)] [coarse steps (1000)] [meshes ("6x12 8x16 12x24")]
+#                                [modes ("local nonlocal")]
+# The top moves at 0.4 m/s whatever the step count: 5e-5 axial strain per step.
+# A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
+# Environment: COSIM_BIN (default build/bin), L5_WORK (default a fresh /tmp dir).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+bin=${COSIM_BIN:-$root/build/bin}
+count=${1:-200}
+steps=${2:-1000}
+meshes=${3:-6x12 8x16 12x24}
+modes=${4:-local nonlocal}
+work=${L5_WORK:-$(mktemp -d /tmp/gmh-l5.XXXXXX)}
+mkdir -p "$work"
+source "$root/bench/gmh/gmh_scene.sh"
+gmh_prepare_cell "$count" --damping 0
+runs=()
+for mesh in $meshes; do
+  nx=${mesh%x*}
+  ny=${mesh#*x}
+  cells=$((nx * ny))
+  half=$((cells / 2))
+  for mode in $modes; do
+    extra=()
+    [[ $mode == nonlocal ]] && extra=(--set "couplings.cells.nonlocal={radius: 6.75e-3}")
+    echo "== $mode $mesh ($cells cells)"
+    t0=$(date +%s)
+    gmh_run "$root/configs/gmh/l5_biaxial.yaml" --set "schedule.coarse_steps=$steps" \
+      --set "solvers.block.params.mesh.box.divisions=[$nx, $ny, 1]" \
+      --set "solvers.cells_a.params.unit_cells.count=$half" \
+      --set "solvers.cells_b.params.unit_cells.first_id=$half" \
+      --set "solvers.cells_b.params.unit_cells.count=$((cells - half))" \
+      --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
+      --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}"
+    mv "$work/run" "$work/$mode-$mesh"
+    mv "$work/run.log" "$work/$mode-$mesh.log"
+    echo "($mode $mesh: $(($(date +%s) - t0)) s)"
+    runs+=("$mode:$mesh=$work/$mode-$mesh")
+  done
+done
+/usr/bin/python3 "$root/bench/gmh/l5_biaxial.py" "${runs[@]}" --png "$work/l5_biaxial.png"
+echo "(files in $work)"
