@@ -18,6 +18,12 @@ count=${1:-200}
 steps=${2:-1000}
 meshes=${3:-6x12 8x16 12x24}
 modes=${4:-local nonlocal}
+for mesh in $meshes; do
+  [[ $mesh =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]] || { echo "l5_biaxial.sh: mesh '$mesh' is not NXxNY (e.g. 8x16)" >&2; exit 2; }
+done
+for mode in $modes; do
+  [[ $mode == local || $mode == nonlocal ]] || { echo "l5_biaxial.sh: mode '$mode' is not local or nonlocal" >&2; exit 2; }
+done
 work=${L5_WORK:-$(mktemp -d /tmp/gmh-l5.XXXXXX)}
 mkdir -p "$work"
 source "$root/bench/gmh/gmh_scene.sh"
@@ -40,6 +46,7 @@ for mesh in $meshes; do
       --set "solvers.cells_b.params.unit_cells.count=$((cells - half))" \
       --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
       --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}"
+    rm -rf "${work:?}/$mode-$mesh"  # a reused L5_WORK: mv would nest the new run inside the old one
     mv "$work/run" "$work/$mode-$mesh"
     mv "$work/run.log" "$work/$mode-$mesh.log"
     echo "($mode $mesh: $(($(date +%s) - t0)) s)"
