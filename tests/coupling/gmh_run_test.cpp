@@ -34,7 +34,10 @@ class GmhRun : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(dir_);
   }
 
-  std::string scene(int coarseSteps, const std::string& secondFirstId = "1", const std::string& couplingExtra = "") const {
+  /// `elements` in a row along x, 0.01 m apart; each worker holds half the cells.
+  std::string scene(int coarseSteps, const std::string& secondFirstId = "1", const std::string& couplingExtra = "",
+                    int elements = 2) const {
+    const std::string perWorker = std::to_string(elements / 2);
     const auto path = dir_ / "gmh.yaml";
     const std::string cell = (cellDir_ / "cell.ckpt").string();
     std::ofstream(path) << "scene: gmh-two-cells\n"
@@ -44,7 +47,7 @@ class GmhRun : public ::testing::Test {
   - name: block
     kind: fem
     params:
-      mesh: {box: {min: [0, 0, 0], max: [0.02, 0.01, 0.01], divisions: [2, 1, 1]}}
+      mesh: {box: {min: [0, 0, 0], max: [)" << 0.01 * elements << R"(, 0.01, 0.01], divisions: [)" << elements << R"(, 1, 1]}}
       material: {model: external, E: 1.0e8, nu: 0.2, density: 1600}
       formulation: one-point
       sets:
@@ -59,11 +62,11 @@ class GmhRun : public ::testing::Test {
   - name: cells_a
     kind: dem
     params:
-      unit_cells: {file: )" << cell << R"(, first_id: 0, count: 1, max_steps: 20000, load_steps: 20}
+      unit_cells: {file: )" << cell << R"(, first_id: 0, count: )" << perWorker << R"(, max_steps: 20000, load_steps: 20}
   - name: cells_b
     kind: dem
     params:
-      unit_cells: {file: )" << cell << ", first_id: " << secondFirstId << R"(, count: 1, max_steps: 20000, load_steps: 20}
+      unit_cells: {file: )" << cell << ", first_id: " << secondFirstId << ", count: " << perWorker << R"(, max_steps: 20000, load_steps: 20}
 couplings:
   - {name: cells, kind: gmh, fem: block, workers: [cells_a, cells_b])" << couplingExtra << R"(}
 output: {dir: )" << (dir_ / "run").string() << "}\n";
@@ -144,6 +147,29 @@ TEST_F(GmhRun, NonlocalIncrementsOfAUniformCompressionAreTheLocalOnes) {
   ASSERT_EQ(pressure.size(), localPressure.size());
   for (std::size_t k = 0; k < pressure.size(); ++k) EXPECT_NEAR(pressure[k], localPressure[k], 1e-6 * localPressure[k]);
   EXPECT_GT(pressure.back(), pressure.front());
+}
+
+TEST_F(GmhRun, AnIndefiniteNonlocalOperatorStopsTheRunWithTheLocalFractionItNeeds) {
+  // Six points in a row, h = 0.01 m, R = 2h: the bell weights form the
+  // tridiagonal W = tri(0.5625, 1, 0.5625), whose lowest eigenvalue is
+  // 1 + 1.125 cos(6 pi / 7) = -0.0136 < 0 (A = D^-1 W has the same signs).
+  const auto refused = run({binary("coupler"), "run", scene(5, "3", ", nonlocal: {radius: 0.02}", 6), "--no-progress"},
+                           120.0);
+  EXPECT_NE(refused.code, 0);
+  const auto said = refused.out + refused.err;
+  EXPECT_NE(said.find("nonlocal operator over 6 points (couplings[0].nonlocal.radius = 0.020000 m, local_fraction "
+                      "= 0.000000) has the eigenvalue -0.0"),
+            std::string::npos) << said;
+  EXPECT_NE(said.find("Set couplings[0].nonlocal.local_fraction to at least 0.0065"), std::string::npos) << said;
+  // The blend the message suggests lifts it: the run goes through.
+  const auto blended = run({binary("coupler"), "run", scene(5, "3", ", nonlocal: {radius: 0.02, local_fraction: 0.15}", 6),
+                            "--no-progress"},
+                           120.0);
+  ASSERT_EQ(blended.code, 0) << blended.out << blended.err;
+  std::ifstream in(dir_ / "run" / "run_report.json");
+  const auto figures = nlohmann::json::parse(in)["figures"];
+  EXPECT_EQ(figures["nonlocal_local_fraction"].get<double>(), 0.15);
+  EXPECT_GT(figures["nonlocal_smallest_eigenvalue"].get<double>(), 0.05);
 }
 
 TEST_F(GmhRun, CheckRefusesANonPositiveNonlocalRadius) {

@@ -3,6 +3,7 @@
 // point spacing giving the local field back, and a spike spread over R.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <random>
 
@@ -79,9 +80,74 @@ TEST(NonlocalOperator, RefusesBadInput) {
   EXPECT_THROW(NonlocalOperator(x, 0.0), std::invalid_argument);
   EXPECT_THROW(NonlocalOperator(x, -1.0), std::invalid_argument);
   EXPECT_THROW(NonlocalOperator(std::vector<double>{0, 0}, 1.0), std::invalid_argument);
+  EXPECT_THROW(NonlocalOperator(x, 1.5, -0.1), std::invalid_argument);
+  EXPECT_THROW(NonlocalOperator(x, 1.5, 1.0), std::invalid_argument);
   const NonlocalOperator op(x, 1.5);
   std::vector<double> out(3);
   EXPECT_THROW(op.apply(std::vector<double>{1, 2, 3}, 1, out), std::invalid_argument);
+}
+
+/// Every eigenvalue of the operator, from its dense matrix.
+Eigen::VectorXd denseEigenvalues(const NonlocalOperator& op) {
+  const auto n = static_cast<Eigen::Index>(op.points());
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto nb = op.neighbours(static_cast<std::size_t>(i));
+    const auto w = op.weights(static_cast<std::size_t>(i));
+    for (std::size_t k = 0; k < nb.size(); ++k) a(i, nb[k]) = w[k];
+  }
+  return a.eigenvalues().real();
+}
+
+/// Element centres of L5's plane-strain mesh (40 x 80 mm, one layer).
+std::vector<double> l5Mesh(int nx, int ny) {
+  std::vector<double> x;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) x.insert(x.end(), {(i + 0.5) * 0.04 / nx, (j + 0.5) * 0.08 / ny, 0.0025});
+  return x;
+}
+
+TEST(NonlocalOperator, BellKernelIsIndefiniteOnAFineMeshAndPositiveOnACoarseOne) {
+  // R = 6.75 mm (Liu Sec. 3.5). h = 5 mm: the neighbours at h weigh 0.20 and
+  // the diagonal ones lie beyond R, so every eigenvalue is positive. h = 3.3 mm:
+  // neighbours at h weigh 0.57 and diagonal ones 0.26; the checkerboard
+  // pattern's symbol 1 - 4(0.57) + 4(0.26) is negative.
+  const NonlocalOperator coarse(l5Mesh(8, 16), 6.75e-3), fine(l5Mesh(12, 24), 6.75e-3);
+  const double coarseDense = denseEigenvalues(coarse).minCoeff(), fineDense = denseEigenvalues(fine).minCoeff();
+  EXPECT_GT(coarseDense, 0.1);
+  EXPECT_LT(fineDense, -0.04);
+  // 128 and 288 points: Lanczos is exact on the first, and from above on the second.
+  EXPECT_NEAR(coarse.smallestEigenvalue(), coarseDense, 1e-10);
+  EXPECT_GE(fine.smallestEigenvalue(), fineDense - 1e-10);
+  EXPECT_NEAR(fine.smallestEigenvalue(), fineDense, 1e-3 * std::abs(fineDense));
+}
+
+TEST(NonlocalOperator, LocalFractionLiftsTheSpectrumAndKeepsAUniformField) {
+  const NonlocalOperator pure(l5Mesh(12, 24), 6.75e-3);
+  const double lowest = denseEigenvalues(pure).minCoeff();
+  const double beta = NonlocalOperator::localFractionFor(lowest, 0.1);
+  EXPECT_NEAR((1.0 - beta) * lowest + beta, 0.1, 1e-14);
+  EXPECT_EQ(NonlocalOperator::localFractionFor(0.3, 0.1), 0.0);
+  const NonlocalOperator blended(l5Mesh(12, 24), 6.75e-3, beta);
+  EXPECT_NEAR(denseEigenvalues(blended).minCoeff(), 0.1, 1e-9);
+  std::vector<double> in(blended.points(), 2.5e-4), out(in.size());
+  blended.apply(in, 1, out);
+  for (double v : out) EXPECT_NEAR(v, 2.5e-4, 1e-17);
+  // A spike keeps beta of itself on top of its pure average.
+  std::vector<double> spike(pure.points(), 0.0), a(spike.size()), b(spike.size());
+  spike[100] = 1.0;
+  pure.apply(spike, 1, a);
+  blended.apply(spike, 1, b);
+  for (std::size_t p = 0; p < spike.size(); ++p) EXPECT_NEAR(b[p], (1.0 - beta) * a[p] + beta * spike[p], 1e-15);
+}
+
+TEST(NonlocalOperator, SmallestEigenvalueOfSixPointsInARow) {
+  // h = 1, R = 2: W = tri(0.5625, 1, 0.5625); A = D^-1 W has the eigenvalues of
+  // D^-1/2 W D^-1/2, here computed densely: one of them is negative.
+  const NonlocalOperator op(grid(6, 1, 1, 1.0), 2.0);
+  const double dense = denseEigenvalues(op).minCoeff();
+  EXPECT_LT(dense, 0.0);
+  EXPECT_NEAR(op.smallestEigenvalue(), dense, 1e-12);
 }
 
 }  // namespace

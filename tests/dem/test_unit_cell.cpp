@@ -200,6 +200,31 @@ TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {
             std::string::npos);
 }
 
+TEST_F(DemUnitCell, StrideInterleavesTheCellsOfTwoWorkers) {
+  // first_id 1, stride 2, count 2: this worker holds the odd cells 1 and 3
+  // (its partner first_id 0 the even ones), so a band over a row of ids loads both.
+  const std::string file = (dir_ / "cell.ckpt").string();
+  DemSolver s;
+  setupWorker(s, workerScene(file, ", first_id: 1, stride: 2, weakened: {file: " + file + ", ids: [3]}"));
+  ASSERT_EQ(s.unitCells()->size(), 2u);
+  EXPECT_EQ(s.unitCells()->cell(1).particles.size(), 150u);
+  EXPECT_EQ(s.unitCells()->cell(3).particles.size(), 150u);
+  EXPECT_THROW(s.unitCells()->cell(2), wire::SolverError);
+  for (const std::string& bad : {std::string(", stride: 0"), ", first_id: 1, stride: 2, weakened: {file: " + file + ", ids: [2]}"}) {
+    DemSolver refused;
+    try {
+      setupWorker(refused, workerScene(file, bad));
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const wire::SolverError& e) {
+      EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+      const std::string msg = e.what();
+      EXPECT_TRUE(msg.find("unit_cells.stride: must be at least 1") != std::string::npos ||
+                  msg.find("cell id 2 is not among this worker's cells") != std::string::npos)
+          << msg;
+    }
+  }
+}
+
 TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
   const std::string yaml = workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 50000");
   DemSolver a;

@@ -9,8 +9,11 @@
 // force index (Eq. 57) and relaxation steps into one result list for FEM.
 // Pair it with `schedule: {kind: multirate, fine: [workers...], ratio: 1,
 // order: coarse-first}`: FEM predicts, then the workers answer.
-// `nonlocal: {radius: R}` passes the increments through the staggered nonlocal
-// operator (Liu Eqs. 58-59, A.3-A.6; NonlocalOperator) before they go out.
+// `nonlocal: {radius: R, local_fraction: beta}` passes the increments through
+// the staggered nonlocal operator (Liu Eqs. 58-59, A.3-A.6; NonlocalOperator)
+// before they go out. An operator with an eigenvalue at or below zero stops
+// the run before the first job: its alternating strain modes would have no
+// stiffness or a negative one (see nonlocal_operator.hpp).
 #include <algorithm>
 #include <array>
 #include <map>
@@ -60,6 +63,9 @@ class GmhCoupling final : public Coupling {
     if (m.has("nonlocal")) {
       config::MapReader nl(m.node("nonlocal"), m.keyPath("nonlocal"), m.diagnostics());
       radius_ = nl.requireNumber("radius", config::Range::positive());
+      localFraction_ = nl.number("local_fraction", 0.0, config::Range{0.0, 1.0, false});
+      if (localFraction_ >= 1.0) nl.error("local_fraction", "must be below 1 (1 is the local model: leave out nonlocal)");
+      nonlocalKey_ = m.keyPath("nonlocal");
       nl.finish();
     }
   }
@@ -78,7 +84,9 @@ class GmhCoupling final : public Coupling {
     out << fem_ << " unit-cell jobs -> " << workers_.size() << " worker(s):";
     for (const auto& w : workers_) out << " " << w;
     out << " (each cell stays on the worker that loaded it)";
-    if (radius_ > 0.0) out << "; nonlocal strain increments, bell kernel, R = " << radius_ << " m (Liu Eqs. 58-59)";
+    if (radius_ > 0.0)
+      out << "; nonlocal strain increments, bell kernel, R = " << radius_ << " m, local fraction " << localFraction_
+          << " (Liu Eqs. 58-59)";
   }
 
   std::string describeLoss(const std::string& solver) const override {
@@ -124,7 +132,7 @@ class GmhCoupling final : public Coupling {
 
   void dispatch(ExchangeContext& ctx) {
     collectJobs(ctx);
-    if (radius_ > 0.0) smooth();
+    if (radius_ > 0.0 && !ids_.empty()) smooth();  // FEM's setup reply carries no jobs
     for (auto& [w, jobs] : jobs_) jobs.ids.clear(), jobs.increments.clear();
     const auto& inc = radius_ > 0.0 ? smoothed_ : increments_;
     for (std::size_t k = 0; k < ids_.size(); ++k) {
@@ -167,15 +175,33 @@ class GmhCoupling final : public Coupling {
       if (positions_.size() != 3 * ids_.size())
         throw std::runtime_error("coupling '" + name() + "': nonlocal needs the quadrature point positions of the jobs, "
                                  "which '" + fem_ + "' did not send");
-      nonlocal_.emplace(positions_, radius_);
+      nonlocal_.emplace(positions_, radius_, localFraction_);
       nonlocalIds_ = ids_;
+      smallestEigenvalue_ = nonlocal_->smallestEigenvalue();
       log::info("coupling '" + name() + "': nonlocal operator over " + std::to_string(ids_.size()) +
                 " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
-                " neighbours per point on average");
+                " neighbours per point on average, smallest eigenvalue " + std::to_string(smallestEigenvalue_));
+      refuseIndefinite();
     }
     smoothed_.resize(increments_.size());
     nonlocal_->apply(increments_, 9, smoothed_);
   }
+  /// An eigenvalue at or below zero: a strain pattern the averaging removes or
+  /// reverses, so the coarse problem has a zero or negative stiffness for it.
+  void refuseIndefinite() const {
+    if (smallestEigenvalue_ > 0.0) return;
+    const double pure = (smallestEigenvalue_ - localFraction_) / (1.0 - localFraction_);
+    throw std::runtime_error(
+        "coupling '" + name() + "': the nonlocal operator over " + std::to_string(ids_.size()) + " points (" +
+        nonlocalKey_ + ".radius = " + std::to_string(radius_) + " m, local_fraction = " +
+        std::to_string(localFraction_) + ") has the eigenvalue " + std::to_string(smallestEigenvalue_) +
+        ": the bell kernel sampled this finely is not positive definite, and strain patterns that alternate "
+        "between neighbouring elements would get a negative or zero stiffness and grow without bound. Set " +
+        nonlocalKey_ + ".local_fraction to at least " + std::to_string(NonlocalOperator::localFractionFor(pure, 0.0)) +
+        " (" + std::to_string(NonlocalOperator::localFractionFor(pure, 0.1)) +
+        " gives the smallest eigenvalue 0.1), or use a coarser mesh");
+  }
+
   void gather(ExchangeContext& ctx) {
     for (const auto& w : workers_)
       if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
@@ -220,6 +246,10 @@ class GmhCoupling final : public Coupling {
     if (fine_[1] > 0.0) f["fine_dt_over_critical"] = fine_[0] / fine_[1];
     if (coarseCritical > 0.0) f["coarse_dt_over_critical"] = dt_ / coarseCritical;
     if (fine_[1] > 0.0 && coarseCritical > 0.0) f["time_step_ratio_alpha"] = coarseCritical / fine_[1];
+    if (nonlocal_) {
+      f["nonlocal_local_fraction"] = localFraction_;
+      f["nonlocal_smallest_eigenvalue"] = smallestEigenvalue_;
+    }
   }
 
  private:
@@ -299,6 +329,9 @@ class GmhCoupling final : public Coupling {
   std::string fem_;
   std::vector<std::string> workers_;
   double radius_ = 0.0;  // nonlocal interaction radius R; 0: local
+  double localFraction_ = 0.0;  // beta: the share of a point's own increment, Eringen's two-phase blend
+  double smallestEigenvalue_ = 1.0;
+  std::string nonlocalKey_;
   std::vector<std::uint32_t> ids_, nonlocalIds_;
   std::vector<double> increments_, positions_, smoothed_;
   double dt_ = 0.0;

@@ -1,8 +1,10 @@
 #include "cosim/coupler/mapping/nonlocal_operator.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -26,9 +28,11 @@ double bell(double r, double radius) {
 
 }  // namespace
 
-NonlocalOperator::NonlocalOperator(std::span<const double> positions, double radius) {
+NonlocalOperator::NonlocalOperator(std::span<const double> positions, double radius, double localFraction) {
   if (!(radius > 0.0) || !std::isfinite(radius))
     throw std::invalid_argument("nonlocal radius must be positive, got " + std::to_string(radius));
+  if (!(localFraction >= 0.0 && localFraction < 1.0))
+    throw std::invalid_argument("nonlocal local fraction must lie in [0, 1), got " + std::to_string(localFraction));
   if (positions.size() % 3 != 0)
     throw std::invalid_argument("nonlocal operator: " + std::to_string(positions.size()) + " coordinates, not 3 per point");
   const std::size_t n = positions.size() / 3;
@@ -56,8 +60,11 @@ NonlocalOperator::NonlocalOperator(std::span<const double> positions, double rad
             total += w;
           }
         }
-    // Eq. A.4: normalised over Q_I (never empty: x_I itself has weight 1).
-    for (std::size_t k = begin; k < weight_.size(); ++k) weight_[k] /= total;
+    // Eq. A.4: normalised over Q_I (never empty: x_I itself has weight 1),
+    // then blended with the point itself: (1 - beta) alpha*_IJ + beta delta_IJ.
+    for (std::size_t k = begin; k < weight_.size(); ++k)
+      weight_[k] = (1.0 - localFraction) * weight_[k] / total + (neighbour_[k] == i ? localFraction : 0.0);
+    rowSum_.push_back(total);
     rowStart_.push_back(static_cast<std::uint32_t>(neighbour_.size()));
   }
 }
@@ -76,6 +83,53 @@ void NonlocalOperator::apply(std::span<const double> in, std::size_t components,
       for (std::size_t c = 0; c < components; ++c) o[c] += weight_[k] * v[c];
     }
   }
+}
+
+double NonlocalOperator::smallestEigenvalue() const {
+  const std::size_t n = points();
+  if (n == 0) return 1.0;
+  const auto size = static_cast<Eigen::Index>(n);
+  // S = D^1/2 A D^-1/2 is symmetric: S_IJ = A_IJ sqrt(D_I / D_J).
+  const auto applySymmetric = [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) {
+    for (std::size_t i = 0; i < n; ++i) {
+      double s = 0.0;
+      for (std::uint32_t k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
+        s += weight_[k] * v[neighbour_[k]] / std::sqrt(rowSum_[neighbour_[k]]);
+      out[static_cast<Eigen::Index>(i)] = s * std::sqrt(rowSum_[i]);
+    }
+  };
+  const Eigen::Index steps = std::min<Eigen::Index>(size, 150);
+  Eigen::MatrixXd basis(size, steps);
+  Eigen::VectorXd diagonal(steps), offDiagonal(steps), w(size);
+  // A fixed pseudo-random start: the uniform field is an eigenvector (1) and would stop Lanczos at once.
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd q(size);
+  for (auto& v : q) v = u(rng);
+  q.normalize();
+  Eigen::Index m = 0;
+  for (; m < steps; ++m) {
+    basis.col(m) = q;
+    applySymmetric(q, w);
+    diagonal[m] = q.dot(w);
+    // Full reorthogonalisation against every earlier vector (twice is enough).
+    for (int pass = 0; pass < 2; ++pass) w -= basis.leftCols(m + 1) * (basis.leftCols(m + 1).transpose() * w);
+    offDiagonal[m] = w.norm();
+    if (offDiagonal[m] <= 1e-12) {  // an invariant subspace: its Ritz values are exact
+      ++m;
+      break;
+    }
+    q = w / offDiagonal[m];
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz;
+  ritz.computeFromTridiagonal(diagonal.head(m), offDiagonal.head(std::max<Eigen::Index>(m - 1, 0)),
+                              Eigen::EigenvaluesOnly);
+  return ritz.eigenvalues().minCoeff();
+}
+
+double NonlocalOperator::localFractionFor(double pure, double target) {
+  // (1 - beta) pure + beta = target.
+  return pure >= target ? 0.0 : (target - pure) / (1.0 - pure);
 }
 
 double NonlocalOperator::meanNeighbours() const {

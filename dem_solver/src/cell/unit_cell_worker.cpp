@@ -95,7 +95,7 @@ std::array<double, 9> increment(std::span<const double> values, std::size_t k, s
 
 std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& node, const std::string& sceneFile) {
   const YamlSection params(node, sceneFile, "params", {"unit_cells"});
-  const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "weakened", "dt", "dt_factor",
+  const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "stride", "weakened", "dt", "dt_factor",
                                                     "tolerance", "max_steps", "load_steps", "min_coordination",
                                                     "mass_damping"});
   DemSystem prototype = loadCell(s, "file", sceneFile);
@@ -104,9 +104,11 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
     if (prototype.massDamping < 0.0) s.fail("mass_damping", "must not be negative");
   }
   auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, prototype));
-  const long first = s.integer("first_id", 0), count = s.integer("count", 1);
+  const long first = s.integer("first_id", 0), count = s.integer("count", 1), stride = s.integer("stride", 1);
   if (first < 0) s.fail("first_id", "must not be negative");
   if (count < 1) s.fail("count", "must be at least 1");
+  if (stride < 1) s.fail("stride", "must be at least 1");
+  const auto held = [&](long id) { return id >= first && (id - first) % stride == 0 && (id - first) / stride < count; };
   std::set<std::uint32_t> weakIds;
   std::unique_ptr<DemSystem> weak;
   if (s.has("weakened")) {
@@ -117,13 +119,13 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
     if (!ids || !ids.IsSequence()) w.fail("ids", "expected a list of cell ids");
     for (const auto& id : ids) {
       const long v = id.as<long>(-1);
-      if (v < first || v >= first + count)
-        w.fail("ids", "cell id " + id.as<std::string>("?") + " is not among first_id .. first_id + count - 1");
+      if (!held(v))
+        w.fail("ids", "cell id " + id.as<std::string>("?") + " is not among this worker's cells (first_id + k stride, k < count)");
       weakIds.insert(static_cast<std::uint32_t>(v));
     }
   }
   for (long k = 0; k < count; ++k) {
-    const auto id = static_cast<std::uint32_t>(first + k);
+    const auto id = static_cast<std::uint32_t>(first + k * stride);
     worker->add(id, cloneCell(weakIds.count(id) ? *weak : prototype));
   }
   return worker;

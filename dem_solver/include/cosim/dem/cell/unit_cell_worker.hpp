@@ -6,8 +6,10 @@
 //   params:
 //     unit_cells:
 //       file: cell500.ckpt        # from dem_prepare_cell; copied into every cell
-//       first_id: 0               # cells first_id .. first_id + count - 1
+//       first_id: 0               # cells first_id + k stride, k = 0 .. count - 1
 //       count: 8
+//       stride: 1                 # 2 with two workers (first_id 0 and 1) interleaves
+//                                 # them, so a band of busy cells loads both alike
 //       weakened: {file: cell500_weak.ckpt, ids: [5]}   # optional: these ids start from another file
 //       dt: 1.0e-7                # pseudo-time step; default dt_factor * critical step of the file
 //       dt_factor: 0.5
