@@ -176,6 +176,12 @@ TEST_F(GmhRun, CheckRefusesANonPositiveNonlocalRadius) {
   const auto f = run({binary("coupler"), "check", scene(5, "1", ", nonlocal: {radius: 0}")}, 30.0);
   EXPECT_EQ(f.code, 2);
   EXPECT_NE((f.out + f.err).find("radius"), std::string::npos) << f.out << f.err;
+  for (const std::string beta : {"1", "-0.1"}) {
+    const auto b = run({binary("coupler"), "check", scene(5, "1", ", nonlocal: {radius: 0.015, local_fraction: " + beta + "}")},
+                       30.0);
+    EXPECT_EQ(b.code, 2) << beta;
+    EXPECT_NE((b.out + b.err).find("local_fraction"), std::string::npos) << b.out << b.err;
+  }
 }
 
 TEST_F(GmhRun, OverlappingWorkersAreRefused) {

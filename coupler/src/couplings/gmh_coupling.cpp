@@ -190,15 +190,16 @@ class GmhCoupling final : public Coupling {
   /// reverses, so the coarse problem has a zero or negative stiffness for it.
   void refuseIndefinite() const {
     if (smallestEigenvalue_ > 0.0) return;
-    const double pure = (smallestEigenvalue_ - localFraction_) / (1.0 - localFraction_);
+    const auto needed = [&](double target) {
+      return std::to_string(NonlocalOperator::localFractionFor(smallestEigenvalue_, localFraction_, target));
+    };
     throw std::runtime_error(
         "coupling '" + name() + "': the nonlocal operator over " + std::to_string(ids_.size()) + " points (" +
         nonlocalKey_ + ".radius = " + std::to_string(radius_) + " m, local_fraction = " +
         std::to_string(localFraction_) + ") has the eigenvalue " + std::to_string(smallestEigenvalue_) +
         ": the bell kernel sampled this finely is not positive definite, and strain patterns that alternate "
         "between neighbouring elements would get a negative or zero stiffness and grow without bound. Set " +
-        nonlocalKey_ + ".local_fraction to at least " + std::to_string(NonlocalOperator::localFractionFor(pure, 0.0)) +
-        " (" + std::to_string(NonlocalOperator::localFractionFor(pure, 0.1)) +
+        nonlocalKey_ + ".local_fraction to at least " + needed(0.0) + " (" + needed(0.1) +
         " gives the smallest eigenvalue 0.1), or use a coarser mesh");
   }
 

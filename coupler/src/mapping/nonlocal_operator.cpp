@@ -90,12 +90,13 @@ double NonlocalOperator::smallestEigenvalue() const {
   if (n == 0) return 1.0;
   const auto size = static_cast<Eigen::Index>(n);
   // S = D^1/2 A D^-1/2 is symmetric: S_IJ = A_IJ sqrt(D_I / D_J).
+  std::vector<double> root(n);
+  for (std::size_t i = 0; i < n; ++i) root[i] = std::sqrt(rowSum_[i]);
   const auto applySymmetric = [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) {
     for (std::size_t i = 0; i < n; ++i) {
       double s = 0.0;
-      for (std::uint32_t k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
-        s += weight_[k] * v[neighbour_[k]] / std::sqrt(rowSum_[neighbour_[k]]);
-      out[static_cast<Eigen::Index>(i)] = s * std::sqrt(rowSum_[i]);
+      for (std::uint32_t k = rowStart_[i]; k < rowStart_[i + 1]; ++k) s += weight_[k] * v[neighbour_[k]] / root[neighbour_[k]];
+      out[static_cast<Eigen::Index>(i)] = s * root[i];
     }
   };
   const Eigen::Index steps = std::min<Eigen::Index>(size, 150);
@@ -127,8 +128,9 @@ double NonlocalOperator::smallestEigenvalue() const {
   return ritz.eigenvalues().minCoeff();
 }
 
-double NonlocalOperator::localFractionFor(double pure, double target) {
-  // (1 - beta) pure + beta = target.
+double NonlocalOperator::localFractionFor(double lowest, double beta, double target) {
+  const double pure = (lowest - beta) / (1.0 - beta);
+  // (1 - beta') pure + beta' = target.
   return pure >= target ? 0.0 : (target - pure) / (1.0 - pure);
 }
 

@@ -42,9 +42,10 @@ class NonlocalOperator {
   /// 150 vectors finds the lowest (exact when there are at most 150 points,
   /// otherwise an upper bound that converges from above).
   double smallestEigenvalue() const;
-  /// The local fraction that lifts an operator whose smallest eigenvalue at
-  /// beta = 0 is `pure` to `target` (0 when it already lies at or above).
-  static double localFractionFor(double pure, double target);
+  /// The local fraction that lifts to `target` an operator whose smallest
+  /// eigenvalue is `lowest` at local fraction `beta` (0 when the pure operator
+  /// already reaches it): inverts (1 - beta) lambda + beta for the pure lambda.
+  static double localFractionFor(double lowest, double beta, double target);
   std::span<const std::uint32_t> neighbours(std::size_t point) const {
     return {neighbour_.data() + rowStart_[point], neighbour_.data() + rowStart_[point + 1]};
   }
