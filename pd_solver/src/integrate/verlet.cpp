@@ -5,6 +5,10 @@
 // v_{n+1/2} dt, written as velocity Verlet (two half kicks around a drift),
 // which is algebraically the same leapfrog but keeps v at full steps for
 // energies and output.
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -57,12 +61,30 @@ void PdSystem::computeExternal() {
   }
 }
 
-void PdSystem::computeForces() {
-  for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    Body& body = bodies_[b];
-    body.model->breakBonds(context(b), body.bonds);
-    body.model->computeForces(context(b), particles_.internalForce);
+void PdSystem::computeInternal() {
+  // Many bodies of similar size (a pack of PD spheres): one body per thread.
+  // A body of a few thousand particles is too small to share its own bond
+  // loops out, and its regions' barriers would cost more than they save.
+  // Bodies are independent, so the forces do not change with the split.
+  int threads = 1;
+#ifdef _OPENMP
+  threads = omp_get_max_threads();
+#endif
+  std::size_t largest = 0;
+  for (const auto& body : bodies_) largest = std::max(largest, body.end - body.begin);
+  const bool perBody = threads > 1 && bodies_.size() >= 2 * static_cast<std::size_t>(threads) &&
+                       largest * bodies_.size() <= 2 * particles_.size();
+  const long nb = static_cast<long>(bodies_.size());
+#pragma omp parallel for schedule(dynamic, 1) if (perBody)
+  for (long b = 0; b < nb; ++b) {
+    Body& body = bodies_[static_cast<std::size_t>(b)];
+    body.model->breakBonds(context(static_cast<std::size_t>(b)), body.bonds);
+    body.model->computeForces(context(static_cast<std::size_t>(b)), particles_.internalForce);
   }
+}
+
+void PdSystem::computeForces() {
+  computeInternal();
   computeExternal();
 }
 
@@ -145,7 +167,8 @@ void PdSystem::stepStaggered(double dt) {
   const auto& m = particles_.mass;
   computeExternal();
   const std::size_t n3 = v.size();
-  const std::vector<double> vOld = v;
+  velocityBefore_ = v;
+  const std::vector<double>& vOld = velocityBefore_;
   for (std::size_t q = 0; q < n3; ++q) v[q] += dt * particles_.externalForce[q] / m[q / 3];
   applyConstraints();
   double w = 0.0;
@@ -154,12 +177,9 @@ void PdSystem::stepStaggered(double dt) {
     u[q] += du;
     w += particles_.externalForce[q] * du;
   }
-  const std::vector<double> vc = v;
-  for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    Body& body = bodies_[b];
-    body.model->breakBonds(context(b), body.bonds);
-    body.model->computeForces(context(b), particles_.internalForce);
-  }
+  velocityCoupled_ = v;
+  const std::vector<double>& vc = velocityCoupled_;
+  computeInternal();
   for (std::size_t q = 0; q < n3; ++q) v[q] += dt * particles_.internalForce[q] / m[q / 3];
   applyConstraints();
   for (std::size_t q = 0; q < n3; ++q) {

@@ -35,6 +35,14 @@ class Lps final : public PdModel {
       }
     buildReverse(body);
     if (body.options.surfaceCorrection) surfaceCorrection(body);
+    // Per-bond constants of the two bond loops, so they gather no partner
+    // volume and multiply no factors: Eq. 20's h w |xi| V_J and w beta V_J.
+    thetaCoef_.resize(b.count());
+    weightVolume_.resize(b.count());
+    for (std::size_t k = 0; k < b.count(); ++k) {
+      weightVolume_[k] = weight_[k] * p.volume[b.neighbor[k]];
+      thetaCoef_[k] = dilatationFactor_[k] * weightVolume_[k] * b.length[k];
+    }
     t_.assign(b.count(), 0.0);
     e_.assign(b.count(), 0.0);
     theta_.assign(n, 0.0);
@@ -51,17 +59,18 @@ class Lps final : public PdModel {
     }
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) scalarForceState(body, static_cast<std::size_t>(il));
-    const double* X = p.reference.data();
-    const double* u = p.displacement.data();
+    const double* x = x_.data();
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
       const std::size_t i = body.begin + static_cast<std::size_t>(il);
+      const double* xi = x + 3 * il;
       double f[3] = {0, 0, 0};
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
         if (b.broken[k]) continue;
         const std::size_t j = b.neighbor[k];
+        const double* xj = x + 3 * (j - body.begin);
         double y[3];
-        for (int a = 0; a < 3; ++a) y[a] = (X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]);
+        for (int a = 0; a < 3; ++a) y[a] = xj[a] - xi[a];
         // Eq. 14 with Eq. 23: (T_I<xi_IJ> - T_J<xi_JI>) = (t_IJ + t_JI) M_IJ;
         // |Y| = e + |xi| from the extension pass (no second square root).
         const double s = (t_[k] + t_[reverse_[k]]) * b.volumeFraction[k] * p.volume[j] / (e_[k] + b.length[k]);
@@ -134,28 +143,29 @@ class Lps final : public PdModel {
   void updateExtensions(const BodyContext& body) const {
     const auto& b = body.bonds;
     const auto& p = body.particles;
-    const double* X = p.reference.data();
-    const double* u = p.displacement.data();
+    currentPositions(body, x_);
+    const double* x = x_.data();
+    const std::uint32_t* nb = b.neighbor.data();
+    const double* len = b.length.data();
+    const double* coef = thetaCoef_.data();
+    double* e = e_.data();
+    const std::size_t first = body.begin;
     const long n = static_cast<long>(body.end - body.begin);
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
-      const std::size_t i = body.begin + static_cast<std::size_t>(il);
+      const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
       double th = 0.0;
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
-        const std::size_t j = b.neighbor[k];
-        double y2 = 0.0;
-        for (int a = 0; a < 3; ++a) {
-          const double y = (X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]);
-          y2 += y * y;
-        }
-        e_[k] = std::sqrt(y2) - b.length[k];
-        if (!b.broken[k])
-          th += dilatationFactor_[k] * weight_[k] * b.length[k] * e_[k] * p.volume[j];
+        const double* xj = x + 3 * (nb[k] - first);
+        const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
+        const double ek = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2) - len[k];
+        e[k] = ek;
+        if (!b.broken[k]) th += coef[k] * ek;
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
     }
-    const auto first = p.displacement.begin() + static_cast<long>(3 * body.begin);
-    uOfExtensions_.assign(first, first + 3 * n);
+    const auto firstU = p.displacement.begin() + static_cast<long>(3 * body.begin);
+    uOfExtensions_.assign(firstU, firstU + 3 * n);
   }
 
   /// True when the body's displacements are bitwise those of the last
@@ -182,24 +192,37 @@ class Lps final : public PdModel {
       coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha * theta_[il] / 3.0 : 0.0;
       coefB_[il] = alpha;
     }
-    const double* X = p.reference.data();
-    const double* u = p.displacement.data();
+    const double* x = x_.data();
+    const std::uint32_t* nb = b.neighbor.data();
+    const double* len = b.length.data();
+    const double* wv = weightVolume_.data();
+    const double* e = e_.data();
+    const double* A = coefA_.data();
+    const double* B = coefB_.data();
+    const std::size_t first = body.begin;
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
-      const std::size_t i = body.begin + static_cast<std::size_t>(il);
-      const double Ai = coefA_[static_cast<std::size_t>(il)], Bi = coefB_[static_cast<std::size_t>(il)];
-      double f[3] = {0, 0, 0};
+      const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
+      const double Ai = A[il], Bi = B[il];
+      double f0 = 0.0, f1 = 0.0, f2 = 0.0;
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
         if (b.broken[k]) continue;
-        const std::size_t j = b.neighbor[k];
-        const std::size_t jl = j - body.begin;
-        const double w = weight_[k];  // w beta
-        const double L = b.length[k];
-        const double tSum = (Ai + coefA_[jl]) * L + (Bi + coefB_[jl]) * e_[k];
-        const double s = tSum * w * p.volume[j] / (e_[k] + L);
-        for (int a = 0; a < 3; ++a) f[a] += s * ((X[3 * j + a] + u[3 * j + a]) - (X[3 * i + a] + u[3 * i + a]));
+        const std::size_t jl = nb[k] - first;
+        const double* xj = x + 3 * jl;
+        const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
+        const double L = len[k];
+        // |Y| = e + |xi| from the extension pass (no second square root).
+        const double tSum = (Ai + A[jl]) * L + (Bi + B[jl]) * e[k];
+        const double s = tSum * wv[k] / (e[k] + L);  // wv = w beta V_J
+        f0 += s * y0;
+        f1 += s * y1;
+        f2 += s * y2;
       }
-      for (int a = 0; a < 3; ++a) force[3 * i + a] = f[a] * p.volume[i];
+      const double vi = p.volume[first + static_cast<std::size_t>(il)];
+      double* fi = force.data() + 3 * (first + static_cast<std::size_t>(il));
+      fi[0] = f0 * vi;
+      fi[1] = f1 * vi;
+      fi[2] = f2 * vi;
     }
   }
 
@@ -311,7 +334,8 @@ class Lps final : public PdModel {
   double K_ = 0.0, G_ = 0.0;
   bool corrected_ = false;
   std::vector<double> weight_, dilatationFactor_, deviatoricFactor_, m_, t_;
-  mutable std::vector<double> theta_, e_;  // scratch of the current configuration
+  std::vector<double> thetaCoef_, weightVolume_;  // per bond: h w |xi| V_J and w beta V_J
+  mutable std::vector<double> theta_, e_, x_;  // scratch of the current configuration
   mutable std::vector<double> uOfExtensions_;  // the body's displacements e_ and theta_ belong to
   std::vector<std::size_t> reverse_;
   std::vector<double> coefA_, coefB_;

@@ -74,32 +74,35 @@ class Pmb final : public PdModel {
       for (std::size_t k = 0; k < b.count(); ++k)
         coef_[k] = c_ * factor_[k] * p.volume[b.neighbor[k]] / b.length[k];
     }
-    const double* X = p.reference.data();
-    const double* u = p.displacement.data();
+    currentPositions(body, x_);
+    const double* x = x_.data();
+    const std::uint32_t* nb = b.neighbor.data();
+    const double* len = b.length.data();
+    const double* coef = coef_.data();
+    const std::size_t first = body.begin;
     const long n = static_cast<long>(body.end - body.begin);
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
-      const std::size_t i = body.begin + static_cast<std::size_t>(il);
-      const double xi0 = X[3 * i] + u[3 * i], xi1 = X[3 * i + 1] + u[3 * i + 1],
-                   xi2 = X[3 * i + 2] + u[3 * i + 2];
+      const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
       double f0 = 0.0, f1 = 0.0, f2 = 0.0;
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
         if (b.broken[k]) continue;  // a broken bond carries no force (phi = 0)
-        const std::size_t j = b.neighbor[k];
-        const double y0 = X[3 * j] + u[3 * j] - xi0, y1 = X[3 * j + 1] + u[3 * j + 1] - xi1,
-                     y2 = X[3 * j + 2] + u[3 * j + 2] - xi2;
+        const double* xj = x + 3 * (nb[k] - first);
+        const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
         const double ylen = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2);
         // Eq. 12: t_IJ V_J along the deformed bond direction (Eq. 9), with the
         // stretch s = (|Y| - |xi|) / |xi| (Eq. 10) folded into the bond
         // coefficient c beta g V_J / |xi|: t / |Y| = coef (|Y| - |xi|) / |Y|.
-        const double t = coef_[k] * (ylen - b.length[k]) / ylen;
+        const double t = coef[k] * (ylen - len[k]) / ylen;
         f0 += t * y0;
         f1 += t * y1;
         f2 += t * y2;
       }
-      force[3 * i] = f0 * p.volume[i];
-      force[3 * i + 1] = f1 * p.volume[i];
-      force[3 * i + 2] = f2 * p.volume[i];
+      const double vi = p.volume[first + static_cast<std::size_t>(il)];
+      double* fi = force.data() + 3 * (first + static_cast<std::size_t>(il));
+      fi[0] = f0 * vi;
+      fi[1] = f1 * vi;
+      fi[2] = f2 * vi;
     }
   }
 
@@ -170,6 +173,7 @@ class Pmb final : public PdModel {
   double c_ = 0.0;
   std::vector<double> factor_;  // beta * surface-correction factor per bond
   std::vector<double> coef_;    // c beta g V_J / |xi| per bond (built on first use)
+  std::vector<double> x_;       // current positions of the body (scratch)
 };
 
 }  // namespace

@@ -1,4 +1,4 @@
-// Influence functions and the damage index shared by models.
+// Influence functions, current positions and the damage index shared by models.
 #include <cmath>
 #include <stdexcept>
 
@@ -12,6 +12,16 @@ std::function<double(double, double)> influenceFunction(const std::string& name)
   if (name == "gaussian") return [](double r, double delta) { return std::exp(-(r * r) / (delta * delta)); };
   throw std::invalid_argument("unknown influence function '" + name +
                               "' (known: constant, inverse, gaussian)");
+}
+
+void currentPositions(const BodyContext& body, std::vector<double>& x) {
+  const long n3 = static_cast<long>(3 * (body.end - body.begin));
+  x.resize(static_cast<std::size_t>(n3));
+  const double* X = body.particles.reference.data() + 3 * body.begin;
+  const double* u = body.particles.displacement.data() + 3 * body.begin;
+  double* out = x.data();
+#pragma omp parallel for schedule(static) if (n3 > 3 * kOmpMinParticles)
+  for (long q = 0; q < n3; ++q) out[q] = X[q] + u[q];
 }
 
 std::vector<double> damage(const BodyContext& body) {

@@ -55,6 +55,12 @@ using ModelRegistry = cosim::Registry<PdModel>;
 /// "inverse" (w = delta / |xi|), "gaussian" (w = exp(-|xi|^2 / delta^2)).
 std::function<double(double, double)> influenceFunction(const std::string& name);
 
+/// Current positions x = X + u of the body's particles (3 per particle,
+/// body-local index). Rounded once, so a deformed bond x_j - x_i is exactly
+/// -(x_i - x_j): both directions of a bond see the same |Y| and pair forces
+/// cancel to round-off; the bond loops also read 3 values per partner, not 6.
+void currentPositions(const BodyContext& body, std::vector<double>& x);
+
 /// Damage index per particle: 1 - (unbroken weighted family volume) / (full).
 std::vector<double> damage(const BodyContext& body);
 

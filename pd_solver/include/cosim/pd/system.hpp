@@ -124,6 +124,7 @@ class PdSystem {
 
  private:
   void computeExternal();
+  void computeInternal();
   void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;
   void applyConstraints();
   void kick(double dt);
@@ -137,6 +138,7 @@ class PdSystem {
   std::vector<double> coupling_;
   std::vector<LinearisedCoupling> linearised_;
   std::vector<double> externalPrev_;
+  std::vector<double> velocityBefore_, velocityCoupled_;  // stepStaggered scratch
   double time_ = 0.0;
   std::uint64_t step_ = 0;
   double work_ = 0.0;
