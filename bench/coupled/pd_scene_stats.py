@@ -219,10 +219,10 @@ def h5(run, scale, variant):
                 e = f["series"][pd_name[0]]["energy"]
                 ke, se, w = e["kinetic"][:], e["strain"][:], e["external_work"][:]
                 for tp in (0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
-                    if tp <= t[-1] + 1e-9:
-                        i = int(np.argmin(np.abs(t - tp)))
-                        print("  t = %.2f s: PD kinetic %.3g J, strain %.3g J, work done on PD %.3g J" % (
-                            t[i], ke[i], se[i], w[i]))
+                    if tp / scale <= t[-1] + 1e-9:
+                        i = int(np.argmin(np.abs(t - tp / scale)))
+                        print("  paper t = %.2f s (run t = %.4g s): PD kinetic %.3g J, strain %.3g J, "
+                              "work done on PD %.3g J" % (tp, t[i], ke[i], se[i], w[i]))
 
 
 def main():
