@@ -76,7 +76,7 @@ class Lps final : public PdModel {
         const double s = (t_[k] + t_[reverse_[k]]) * b.volumeFraction[k] * p.volume[j] / (e_[k] + b.length[k]);
         for (int a = 0; a < 3; ++a) f[a] += s * y[a];
       }
-      for (int a = 0; a < 3; ++a) force[3 * i + a] = f[a] * p.volume[i];
+      storeBondSum(force, p, i, f);
     }
   }
 
@@ -218,11 +218,8 @@ class Lps final : public PdModel {
         f1 += s * y1;
         f2 += s * y2;
       }
-      const double vi = p.volume[first + static_cast<std::size_t>(il)];
-      double* fi = force.data() + 3 * (first + static_cast<std::size_t>(il));
-      fi[0] = f0 * vi;
-      fi[1] = f1 * vi;
-      fi[2] = f2 * vi;
+      const double f[3] = {f0, f1, f2};
+      storeBondSum(force, p, first + static_cast<std::size_t>(il), f);
     }
   }
 

@@ -98,11 +98,8 @@ class Pmb final : public PdModel {
         f1 += t * y1;
         f2 += t * y2;
       }
-      const double vi = p.volume[first + static_cast<std::size_t>(il)];
-      double* fi = force.data() + 3 * (first + static_cast<std::size_t>(il));
-      fi[0] = f0 * vi;
-      fi[1] = f1 * vi;
-      fi[2] = f2 * vi;
+      const double f[3] = {f0, f1, f2};
+      storeBondSum(force, p, first + static_cast<std::size_t>(il), f);
     }
   }
 

@@ -61,6 +61,11 @@ std::function<double(double, double)> influenceFunction(const std::string& name)
 /// cancel to round-off; the bond loops also read 3 values per partner, not 6.
 void currentPositions(const BodyContext& body, std::vector<double>& x);
 
+/// Writes particle i's force f^PD = V_I sum (...) V_J from its bond sum f.
+inline void storeBondSum(std::vector<double>& force, const Particles& p, std::size_t i, const double f[3]) {
+  for (int a = 0; a < 3; ++a) force[3 * i + a] = f[a] * p.volume[i];
+}
+
 /// Damage index per particle: 1 - (unbroken weighted family volume) / (full).
 std::vector<double> damage(const BodyContext& body);
 
