@@ -100,7 +100,14 @@ int main(int argc, char** argv) {
     else if (a == "--probe") probe = true;
     else if (a == "--repeat" && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
     else if (a == "--lammps-rules") lammpsRules = true;
-    else if (a == "--horizon" && i + 1 < argc) horizon = std::atof(argv[++i]);
+    else if (a == "--horizon" && i + 1 < argc) {
+      char* end = nullptr;
+      horizon = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0' || !(horizon > 0.0)) {
+        std::fprintf(stderr, "pd_bench: --horizon needs a positive number of lattice spacings (got '%s')\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--models" && i + 1 < argc) {
       models.clear();
       std::stringstream list(argv[++i]);
