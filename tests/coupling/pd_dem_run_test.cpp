@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <fstream>
 #include <sstream>
 #include <nlohmann/json.hpp>
@@ -82,6 +83,42 @@ TEST(PdDemContactRun, SpherePressedIntoABlockGetsEqualAndOppositeForces) {
   EXPECT_LT(force, 1.5 * 226.6);
   // The force at 0.4 mm against Hertz (measured -26 %, docs/pd_dem_coupling.md).
   EXPECT_LT(report["errors"][0]["value"].get<double>(), 0.4);
+  // The three origins of d: the block's top face (z = 0.04), the highest hybrid
+  // top (0.035 + R_h) and first contact, which lies between them on this lattice.
+  const auto& fig = report["figures"];
+  const double rh = std::cbrt(3.0 * 1e-6 / (4.0 * std::numbers::pi));
+  EXPECT_NEAR(fig["body_surface_z_m"].get<double>(), 0.04, 1e-12);
+  EXPECT_NEAR(fig["hybrid_top_z_m"].get<double>(), 0.035 + rh, 1e-9);
+  EXPECT_GT(fig["first_contact_z_m"].get<double>(), 0.04);
+  EXPECT_LT(fig["first_contact_z_m"].get<double>(), 0.035 + rh);
+  // The same target depth from a lower origin puts the sphere deeper: more force
+  // against the same Hertz value.
+  const double fromSurface = fig["relative_error_at_0.4mm_from_surface"].get<double>();
+  const double fromFirst = fig["relative_error_at_0.4mm_from_first-contact"].get<double>();
+  EXPECT_EQ(fromFirst, fig["relative_error_at_0.4mm"].get<double>());  // the default origin
+  EXPECT_GT(fromSurface, fromFirst);
+  // The sphere starts 0.87 mm below the hybrid top: no exchange at 0.4 mm from it.
+  EXPECT_FALSE(fig.contains("relative_error_at_0.4mm_from_hybrid-top"));
+}
+
+TEST(PdDemContactRun, TheSurfaceOriginDrivesTheMainFiguresAndAnUnknownOriginIsRefused) {
+  const std::string analysis = "{reference: hertz-indentation, pd: block, dem: spheres, young: 1.0e8, "
+                               "poisson: 0.25, depths: [0.0004], window: 0.0002, origin: ";
+  {
+    PdDemRun r;
+    const auto done = r.run("", {}, analysis + "surface}");
+    ASSERT_EQ(done.code, 0) << done.out << done.err;
+    const auto report = r.report();
+    const auto& fig = report["figures"];
+    EXPECT_EQ(fig["relative_error_at_0.4mm"].get<double>(), fig["relative_error_at_0.4mm_from_surface"].get<double>());
+    // The series' depth column is measured from the face: it starts above it, negative.
+    EXPECT_LT(r.series()[0], 0.0);
+  }
+  PdDemRun r;
+  const auto done = r.run("", {}, analysis + "middle}");
+  EXPECT_EQ(done.code, 2);
+  EXPECT_NE((done.out + done.err).find("origin"), std::string::npos) << done.out << done.err;
+  EXPECT_NE((done.out + done.err).find("scene.yaml:"), std::string::npos) << done.out << done.err;
 }
 
 TEST(PdDemContactRun, MultirateBothWaysRoundAndStaggeredOrdersBalanceToo) {

@@ -54,8 +54,9 @@ TEST_P(PdElasticEnergy, InteriorDensityMatchesClassicalWithinOnePercent) {
   const double err = interiorEnergyError(c, 4.0, pmb ? "discrete" : "continuum");
   std::printf("[measured] %s nu=%.2f %s, delta=4h%s: W_pd/W_classical - 1 = %+.4f %%\n", c.model, c.nu,
               c.shear ? "shear" : "uniaxial", pmb ? " (discrete c)" : "", 100.0 * err);
-  std::printf("[measured]   for reference, delta=3h: %+.4f %%\n",
-              100.0 * interiorEnergyError(c, 3.0, pmb ? "discrete" : "continuum"));
+  std::printf("[measured]   for reference, delta=3h: %+.4f %%, delta=2h: %+.4f %%\n",
+              100.0 * interiorEnergyError(c, 3.0, pmb ? "discrete" : "continuum"),
+              100.0 * interiorEnergyError(c, 2.0, pmb ? "discrete" : "continuum"));
   if (pmb)
     std::printf("[measured]   for reference, continuum c = 18K/(pi delta^4): delta=4h %+.4f %%, delta=3h %+.4f %%\n",
                 100.0 * interiorEnergyError(c, 4.0, "continuum"), 100.0 * interiorEnergyError(c, 3.0, "continuum"));
