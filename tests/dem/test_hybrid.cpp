@@ -72,9 +72,9 @@ struct DemRun {
   DemSolver solver;
   capnp::MallocMessageBuilder in, out;
   proto::CouplingData::Builder inputs = in.initRoot<proto::CouplingData>();
-  explicit DemRun(const Hybrids& h) {
+  explicit DemRun(const Hybrids& h, const std::string& scene = kScene) {
     h.write(inputs);
-    solver.setup({"scene.yaml", kScene, "particles", "", inputs.asReader()}, out.initRoot<proto::CouplingData>());
+    solver.setup({"scene.yaml", scene, "particles", "", inputs.asReader()}, out.initRoot<proto::CouplingData>());
   }
   proto::HybridForces::Reader advance(std::uint32_t steps, double dt) {
     wire::AdvanceRequest r;
@@ -131,6 +131,36 @@ TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
   EXPECT_LT(forceOf(f, 0).z, fb.z);
   // E: self-contact with C across the surface (1 mm overlap, beyond the horizon) pushes it up.
   EXPECT_GT(forceOf(f, 4).z, 0.0);
+}
+
+// A DEM side of only PD bodies (H5's all-PD pack): no spheres of its own, the
+// hybrid particles meet the wall and each other; the skin defaults to a fifth
+// of their smallest radius. Without `hybrid:` a scene without particles is
+// refused, naming the key.
+TEST(HybridSpheresInDem, ASceneOfOnlyHybridParticlesRuns) {
+  std::string scene = kScene;
+  const auto at = scene.find("      particles:\n");
+  scene.erase(at, scene.find("      walls:") - at);
+  const Hybrids h;
+  DemRun run(h, scene);
+  EXPECT_EQ(run.solver.system().particles.size(), 5u);
+  EXPECT_DOUBLE_EQ(run.solver.system().neighbors.skin, 0.2 * 0.01);
+  const auto f = run.advance(20, 1e-5);
+  EXPECT_GT(forceOf(f, 4).z, 0.0);                 // E on C, across the surface
+  EXPECT_NEAR(forceOf(f, 0).z, forceOf(f, 1).z, 1e-9);  // A and B: the wall alone
+  EXPECT_GT(forceOf(f, 1).z, 0.0);
+
+  std::string bare = scene;
+  bare.erase(bare.find("      hybrid: {material: pd-surface}\n"), 37);
+  try {
+    DemRun refused(h, bare);
+    FAIL() << "a scene without particles or hybrid: was accepted";
+  } catch (const wire::SolverError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("particles"), std::string::npos) << what;
+    EXPECT_NE(what.find("hybrid"), std::string::npos) << what;
+    EXPECT_NE(what.find("scene.yaml:"), std::string::npos) << what;
+  }
 }
 
 TEST(HybridSpheresInDem, BadMessagesAreRefused) {

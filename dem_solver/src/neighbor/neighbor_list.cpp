@@ -46,6 +46,7 @@ void NeighborList::binParticles(const Particles& p, double cell) {
   Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
           std::numeric_limits<double>::max()};
   Vec3 hi = -lo;
+  if (n == 0) lo = hi = Vec3{};  // no particles yet (a DEM side of only hybrid PD particles): one empty cell
   for (const Vec3& x : p.x)
     for (int d = 0; d < 3; ++d) {
       lo[d] = std::min(lo[d], x[d]);

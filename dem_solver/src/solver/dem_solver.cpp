@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 #include "cosim/dem/io/checkpoint.hpp"
@@ -189,12 +190,22 @@ void DemSolver::applyHybridParticles(proto::CouplingData::Reader inputs) {
   for (auto h : inputs.getHybridParticles()) {
     try {
       if (!hybrids_.apply(h, system_, settings_.hybridMaterial)) continue;
+      defaultSkinFromHybrids();
       system_.initialize();
       if (system_.step == 0) hybrids_.checkStartOverlaps(system_, settings_.overlapTolerance);
     } catch (const std::invalid_argument& e) {
       throw SolverError(Code::BAD_INPUT, e.what());
     }
   }
+}
+
+void DemSolver::defaultSkinFromHybrids() {
+  // A DEM side with no spheres of its own gets the usual default skin, a fifth
+  // of the smallest radius, once the hybrid particles bring radii.
+  if (system_.neighbors.skin > 0.0) return;
+  double rmin = std::numeric_limits<double>::max();
+  for (const std::uint32_t i : hybrids_.particleIndices()) rmin = std::min(rmin, system_.particles.radius[i]);
+  if (rmin < std::numeric_limits<double>::max()) system_.neighbors.skin = 0.2 * rmin;
 }
 
 void DemSolver::applyWeightProfile(proto::CouplingData::Reader inputs) {

@@ -60,8 +60,12 @@ void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& veloci
 }
 
 void readParticles(const YamlSection& params, DemSystem& system) {
+  // A DEM side of only PD bodies (their hybrid surface particles meet each
+  // other here, Hartmann Sec. 3) has no spheres of its own.
+  const bool hybridOnly = params.has("hybrid");
   const YAML::Node list = params.node("particles");
-  if (!list) params.fail("particles", "a dem solver needs particles");
+  if (!list && hybridOnly) return;
+  if (!list) params.fail("particles", "a dem solver needs particles (or hybrid: {material: ...} to take PD's surface particles)");
   if (!list.IsSequence()) params.fail("particles", "expected a list of sources (lattice, random, file, sphere)");
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string path = params.path() + ".particles[" + std::to_string(i) + "]";
@@ -136,7 +140,7 @@ void readParticles(const YamlSection& params, DemSystem& system) {
       system.particles.driven.back() = s.flag("driven", false) ? 1 : 0;
     }
   }
-  if (system.particles.size() == 0) params.fail("particles", "no particles were created");
+  if (system.particles.size() == 0 && !hybridOnly) params.fail("particles", "no particles were created");
 }
 
 void readWalls(const YamlSection& params, DemSystem& system) {
@@ -274,7 +278,8 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   readWalls(params, system);
   double rmin = std::numeric_limits<double>::max();
   for (double r : system.particles.radius) rmin = std::min(rmin, r);
-  system.neighbors.skin = params.positive("skin", 0.2 * rmin);
+  // Without spheres of its own the default waits for the hybrid particles' radii (DemSolver).
+  system.neighbors.skin = params.positive("skin", system.particles.size() > 0 ? 0.2 * rmin : 0.0);
   settings.dt = params.positive("dt", 0.0);
   settings.force = params.flag("force", false);
   settings.overlapTolerance = params.number("overlap_tolerance", 0.01);

@@ -43,6 +43,8 @@ class DemSolver final : public wire::Solver {
   void applyInputs(proto::CouplingData::Reader inputs);
   void applyWeightProfile(proto::CouplingData::Reader inputs);
   void applyHybridParticles(proto::CouplingData::Reader inputs);
+  /// skin 0 (no spheres of its own at setup): a fifth of the smallest hybrid radius.
+  void defaultSkinFromHybrids();
   void fillOutputs(proto::CouplingData::Builder outputs) const;
   void fillZones(proto::CouplingData::Builder outputs) const;
   void accumulateWallContacts();
