@@ -15,7 +15,7 @@
 #   directory with them in bin/ (default: <repo>/build/bin); e.g. /work/hbin.
 #   VARIANTS: comma-separated subset of mixed,all-pd,all-dem (default: all three).
 #   --coarse: PD spheres at dx = 0.03 m (552 particles each, 16x cheaper:
-#   8x fewer particles, 2x the step dt_PD = 1.5625e-5 s, m = 2, so DEM keeps
+#   8x fewer particles, 2x the step dt_PD = 7.8125e-6 s, m = 4, so DEM keeps
 #   its 3.125e-5 s); the geometry is unchanged (its gaps allow dx 0.03 too).
 #   --time-scale S: the walls move S times faster (S x 0.1 m/s) for 3 / S s,
 #   snapshots every 0.25 / S s, and the paper's times are read at t / S. With
@@ -63,8 +63,8 @@ for v in ${variants//,/ }; do
   if [ $coarse = 1 ] && [ $v != all-dem ]; then
     nb=$([ $v = mixed ] && echo 8 || echo 16)
     for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done
-    # dt_PD 0.45 of the coarse critical step (3.45e-5 s), as the scene's; snapshots stay at 0.25 s
-    sets+=(--set schedule.dt=1.5625e-5 --set schedule.ratio=2)
+    # dt_PD 0.227 of the coarse critical step (3.45e-5 s), as the scene's; snapshots stay at 0.25 s
+    sets+=(--set schedule.dt=7.8125e-6 --set schedule.ratio=4)
   fi
   if [ "$scale" != 1 ]; then
     every=$((8000 / scale))

@@ -5,6 +5,8 @@
 
 #include <capnp/message.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -158,6 +160,49 @@ TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
   Fixture forced(scene("      force: true\n"));
   advance(forced.solver, 1, 1.5 * crit, 0, 0.0, 0.0, false);
   EXPECT_EQ(forced.solver.step(), 1u);
+}
+
+// The energy balance (K + U) - (K_0 + U_0) = W stops a run whose step is above
+// the stable limit long before a value is non-finite, and leaves a stable
+// run alone; energy_tolerance: 0 turns it off.
+struct Runaway {
+  std::size_t stoppedAt = 0;  // advance (1-based) whose energies threw; 0: none
+  std::string message;
+  bool finite = true;
+};
+
+Runaway pushAndWatch(const std::string& extra, double dtOverCritical, std::size_t advances) {
+  Fixture f(scene(extra));
+  const double dt = dtOverCritical * f.solver.criticalDt();
+  const auto id = f.out.getRoot<CouplingData>().asReader().getHybridParticles()[0].getIds()[0];
+  Runaway r;
+  for (std::size_t k = 1; k <= advances && r.stoppedAt == 0; ++k) {
+    advance(f.solver, 1, dt, id, k < 20 ? 1.0 : 0.0, 0.0, false);
+    try {
+      f.solver.energies();
+    } catch (const cosim::wire::SolverError& e) {
+      r.stoppedAt = k;
+      r.message = e.what();
+    }
+  }
+  for (const double u : f.solver.system().particles().displacement) r.finite = r.finite && std::isfinite(u);
+  return r;
+}
+
+TEST(PdSolverEnergyBalance, AStepAboveTheStableLimitIsStoppedWhileValuesAreFinite) {
+  // This bar (delta = 3 dx) runs at 1.2 x dx / c without the check tripping in
+  // 400 steps; at 1.5 x it grows from the first steps.
+  const auto unstable = pushAndWatch("      force: true\n", 1.5, 400);
+  std::printf("[measured] LPS bar at 1.5 x the critical step: energy check stopped it at advance %zu\n",
+              unstable.stoppedAt);
+  ASSERT_GT(unstable.stoppedAt, 0u) << "a run at 1.5 x the critical step was never stopped";
+  EXPECT_TRUE(unstable.finite);
+  EXPECT_NE(unstable.message.find("energy balance broken"), std::string::npos) << unstable.message;
+  EXPECT_NE(unstable.message.find("energy_tolerance"), std::string::npos) << unstable.message;
+  EXPECT_EQ(pushAndWatch("", 0.9, 2000).stoppedAt, 0u) << "a stable run was stopped";
+  EXPECT_EQ(pushAndWatch("      force: true\n      energy_tolerance: 0\n", 1.5, 20).stoppedAt, 0u);
+  EXPECT_NE(setupError(scene("      energy_tolerance: -1\n")).find("scene.yaml:"), std::string::npos);
+  EXPECT_NE(setupError(scene("      energy_tolerance: -1\n")).find("energy_tolerance"), std::string::npos);
 }
 
 TEST(PdSolverAdvance, InputsHeldOrInterpolatedOverSubSteps) {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 
 #include <yaml-cpp/yaml.h>
 
@@ -111,7 +112,21 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
     snapshots_->write(system_);
   }
   ready_ = true;
+  startEnergyBalance();
   writeHybrid(outputs);
+}
+
+void PdSolver::startEnergyBalance() {
+  energyBalance_ = EnergyBalance(config_.energyTolerance);
+  if (config_.quasiStatic) energyBalance_.disable("quasi_static relaxation damps the motion");
+  for (const auto& b : system_.bodies())
+    if (b.spec.options.criticalStretch > 0.0)
+      energyBalance_.disable("body '" + b.spec.name + "' breaks bonds (critical_stretch), which releases energy");
+  for (const auto& bc : config_.boundaries)
+    if (bc.type == Constraint::Velocity && (bc.velocity[0] != 0.0 || bc.velocity[1] != 0.0 || bc.velocity[2] != 0.0))
+      energyBalance_.disable("a boundary prescribes a velocity, whose reaction's work is not counted");
+  const auto e = system_.energies();
+  energyBalance_.start(e.kinetic + e.strain, e.externalWork);
 }
 
 void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into,
@@ -159,6 +174,7 @@ void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::ve
 
 void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::CouplingData::Builder outputs) {
   requireSetup("advance");
+  lastDt_ = req.dt;
   const double crit = system_.criticalTimeStep();
   if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
     throw SolverError(Error::Code::BAD_INPUT, "advance: dt = " + std::to_string(req.dt) +
@@ -353,6 +369,7 @@ void PdSolver::restore(const std::string& path) {
   system_.setTime(t, s);
   system_.externalWork() = w;
   advances_ = adv;
+  startEnergyBalance();
 }
 
 double PdSolver::time() const { return system_.time(); }
@@ -362,6 +379,15 @@ double PdSolver::criticalDt() const { return ready_ ? system_.criticalTimeStep()
 cosim::wire::NamedValues PdSolver::energies() const {
   if (!ready_) return {};
   const auto e = system_.energies();
+  if (const auto broken = energyBalance_.check(e.kinetic + e.strain, e.externalWork)) {
+    std::ostringstream m;
+    m.precision(6);
+    m << *broken << ", at t = " << system_.time() << " s (step " << system_.stepCount()
+      << "): the PD integration is unstable at dt = " << lastDt_ << " s (critical step dx / c = "
+      << system_.criticalTimeStep()
+      << " s, Hartmann Eqs. 41-42); lower dt, or set params.energy_tolerance: 0 to turn the check off";
+    throw SolverError(Error::Code::SOLVER_FAILURE, m.str());
+  }
   return {{"kinetic", e.kinetic}, {"strain", e.strain}, {"external_work", e.externalWork}};
 }
 

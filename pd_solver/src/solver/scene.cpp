@@ -155,7 +155,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
   Reader r{sceneFile};
   PdConfig c;
   r.allowOnly(params, "params", {"bodies", "boundary", "loads", "body_force", "integrator", "inputs",
-                                 "force", "hybrid", "output", "quasi_static"});
+                                 "force", "hybrid", "output", "quasi_static", "energy_tolerance"});
   const auto bodies = params["bodies"];
   if (!bodies || !bodies.IsSequence() || bodies.size() == 0)
     r.fail(params, "'bodies' must be a non-empty list");
@@ -214,6 +214,10 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
     c.interpolate = v == "interpolate";
   }
   if (params["force"]) c.force = r.flag(params["force"], "force");
+  if (const auto n = params["energy_tolerance"]) {
+    c.energyTolerance = r.number(n, "energy_tolerance");
+    if (!(c.energyTolerance >= 0.0)) r.fail(n, "'energy_tolerance' must be >= 0 (0 turns the check off)");
+  }
   if (params["hybrid"]) c.hybrid = r.flag(params["hybrid"], "hybrid");
   if (const auto n = params["output"]) {
     r.allowOnly(n, "output", {"file", "every"});

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/pd/energy_balance.hpp"
 #include "cosim/pd/scene.hpp"
 #include "cosim/pd/snapshot.hpp"
 #include "cosim/pd/system.hpp"
@@ -38,6 +39,8 @@ class PdSolver final : public cosim::wire::Solver {
                         std::vector<PdSystem::LinearisedCoupling>* linearised) const;
   void writeHybrid(cosim::proto::CouplingData::Builder out) const;
   void checkFinite() const;
+  /// Starts the energy balance from the current state (setup, restore).
+  void startEnergyBalance();
 
   PdConfig config_;
   PdSystem system_;
@@ -45,6 +48,9 @@ class PdSolver final : public cosim::wire::Solver {
   std::vector<double> hybridHorizon_;  // per body
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::uint64_t advances_ = 0;
+  double lastDt_ = 0.0;
+  // Checked whenever energies are asked for; the check keeps the largest energy seen.
+  mutable EnergyBalance energyBalance_;
   bool ready_ = false;
 };
 

@@ -20,6 +20,7 @@ struct PdConfig {
   bool staggered = false;    // integrator: staggered (Hartmann Eq. 47) | verlet
   bool interpolate = false;  // inputs: interpolate | hold
   bool force = false;        // accept dt above the critical step
+  double energyTolerance = 0.5;  // EnergyBalance tolerance (0 = off)
   bool hybrid = true;        // export hybrid surface particles
   bool quasiStatic = false;  // advance = adaptive dynamic relaxation to equilibrium
   double relaxTolerance = 1e-6;

@@ -1,0 +1,39 @@
+#pragma once
+// EnergyBalance: the run-time stability check of a conservative PD system.
+// Without damping, damage or prescribed motion, the energy a PD system stores
+// changes only by the work of its external forces (contact, body and applied
+// loads): (K + U) - (K_0 + U_0) = W. Velocity Verlet keeps that to O(dt^2) in
+// a stable run; when a step is above a particle's stable limit (e.g. the
+// one-sided families of a PD sphere's outer shell under contact, which the
+// critical step dx / c of Hartmann Eqs. 41-42 does not cover) the stored
+// energy runs away from the work long before any value is non-finite.
+#include <optional>
+#include <string>
+
+namespace cosim::pd {
+
+class EnergyBalance {
+ public:
+  /// tolerance: the largest |stored change - work| as a share of the largest
+  /// energy seen so far (stored, stored at the start or |work|); 0 = off.
+  explicit EnergyBalance(double tolerance = 0.0) : tolerance_(tolerance) {}
+
+  /// Starts the balance at `stored` with `work` already done (0 on a fresh
+  /// run; the checkpoint's work on a restore).
+  void start(double stored, double work);
+  /// Why the check is off (empty: it is on).
+  void disable(std::string why) { disabledBecause_ = std::move(why); }
+  bool active() const { return tolerance_ > 0.0 && disabledBecause_.empty(); }
+  const std::string& disabledBecause() const { return disabledBecause_; }
+  double tolerance() const { return tolerance_; }
+
+  /// Empty while the balance holds; otherwise what broke, in numbers.
+  std::optional<std::string> check(double stored, double work);
+
+ private:
+  double tolerance_ = 0.0;
+  double storedAtStart_ = 0.0, scale_ = 0.0;
+  std::string disabledBecause_;
+};
+
+}  // namespace cosim::pd
