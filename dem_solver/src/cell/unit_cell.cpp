@@ -184,7 +184,7 @@ DemSystem prepareUnitCell(const CellPreparation& prep, PreparationLog* log) {
   for (std::size_t i = 0; i < set.radii.size(); ++i) s.particles.add(set.centres[i], set.radii[i], prep.density);
   s.cell.enabled = true;
   s.cell.h = {side, 0, 0, 0, side, 0, 0, 0, side};
-  s.neighbors.skin = 0.2 * rmin;
+  s.neighbors.skin = kDefaultSkinPerRadius * rmin;
   s.initialize();
   const double dt = prep.dtFactor * criticalTimeStep(s);
   s.massDamping = prep.massDampingDt / dt;  // c of -c m v (Liu Sec. 2.3.2, c_I)

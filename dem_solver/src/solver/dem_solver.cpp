@@ -200,12 +200,12 @@ void DemSolver::applyHybridParticles(proto::CouplingData::Reader inputs) {
 }
 
 void DemSolver::defaultSkinFromHybrids() {
-  // A DEM side with no spheres of its own gets the usual default skin, a fifth
-  // of the smallest radius, once the hybrid particles bring radii.
+  // A DEM side with no spheres of its own gets the usual default skin
+  // (kDefaultSkinPerRadius) once the hybrid particles bring radii.
   if (system_.neighbors.skin > 0.0) return;
   double rmin = std::numeric_limits<double>::max();
   for (const std::uint32_t i : hybrids_.particleIndices()) rmin = std::min(rmin, system_.particles.radius[i]);
-  if (rmin < std::numeric_limits<double>::max()) system_.neighbors.skin = 0.2 * rmin;
+  if (rmin < std::numeric_limits<double>::max()) system_.neighbors.skin = kDefaultSkinPerRadius * rmin;
 }
 
 void DemSolver::applyWeightProfile(proto::CouplingData::Reader inputs) {

@@ -279,7 +279,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   double rmin = std::numeric_limits<double>::max();
   for (double r : system.particles.radius) rmin = std::min(rmin, r);
   // Without spheres of its own the default waits for the hybrid particles' radii (DemSolver).
-  system.neighbors.skin = params.positive("skin", system.particles.size() > 0 ? 0.2 * rmin : 0.0);
+  system.neighbors.skin = params.positive("skin", system.particles.size() > 0 ? kDefaultSkinPerRadius * rmin : 0.0);
   settings.dt = params.positive("dt", 0.0);
   settings.force = params.flag("force", false);
   settings.overlapTolerance = params.number("overlap_tolerance", 0.01);

@@ -23,8 +23,8 @@
 // run ends once the shallowest of the three depths is past the last target.
 #include <algorithm>
 #include <array>
-#include <numbers>
 #include <cmath>
+#include <numbers>
 #include <ostream>
 #include <sstream>
 

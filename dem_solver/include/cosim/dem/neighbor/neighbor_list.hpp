@@ -14,6 +14,9 @@
 
 namespace cosim::dem {
 
+/// The Verlet skin when none is given: a fifth of the smallest radius.
+constexpr double kDefaultSkinPerRadius = 0.2;
+
 class NeighborList {
  public:
   double skin = 0.0;
