@@ -41,6 +41,7 @@ class MaterialTable {
   std::size_t size() const { return materials_.size(); }
   /// Pair table, row-major by material index; rebuilt by the contact law's prepare().
   std::vector<PairMaterial>& pairs() { return pairs_; }
+  const std::vector<PairMaterial>& pairs() const { return pairs_; }
   const PairMaterial& pair(std::uint16_t a, std::uint16_t b) const { return pairs_[a * materials_.size() + b]; }
   const std::vector<Material>& all() const { return materials_; }
 

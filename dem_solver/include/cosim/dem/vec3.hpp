@@ -26,6 +26,10 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
 }
 constexpr double norm2(const Vec3& a) { return dot(a, a); }
 inline double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+/// c ? a : b per component, as selects (no branch), so loops over contacts vectorise.
+constexpr Vec3 select(bool c, const Vec3& a, const Vec3& b) {
+  return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z};
+}
 
 /// Unit quaternion w + xi + yj + zk for particle orientation.
 struct Quat {

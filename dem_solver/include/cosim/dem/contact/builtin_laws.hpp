@@ -87,15 +87,18 @@ inline Vec3 composedForce(const HertzNormal&, const MindlinTangential&, const Ve
   const double a = std::sqrt(rEff * overlap);
   const double stiffness = 2.0 * pm.eEff * a;
   const double vn = dot(vRel, n);
-  const double root = pm.gamma > 0.0 ? std::sqrt(stiffness * mEff) : 0.0;
+  // Undamped (gamma = 0) both dashpots vanish through the factor gamma: no branch.
+  const double root = std::sqrt(stiffness * mEff);
   const double damp = -pm.gamma * root * vn;
   const double fn = 4.0 / 3.0 * pm.eEff * a * overlap + damp;
   dissipated += -damp * vn * dt;
-  const TangentialInput in = tangentialInput(n, vRel, vn, overlap, rEff, mEff, fn, dt, pm);
   const double before = std::max(0.0, overlap + vn * dt);  // overlap one step ago
   const double kt = 8.0 * pm.gEff * a;
-  const Vec3 ft = tangentialSpring(in, kt, 8.0 * pm.gEff * std::sqrt(rEff * before),
-                                   pm.gamma * root * pm.mindlinDashpotRatio, shear, dissipated);
+  // The spring on plain values, not a TangentialInput: that struct (it points
+  // at pm) would keep GCC from vectorising the batched pair loop.
+  const Vec3 ft = tangentialSpring(n, vRel - vn * n, pm.friction * std::fabs(fn), dt, kt,
+                                   8.0 * pm.gEff * std::sqrt(rEff * before), pm.gamma * root * pm.mindlinDashpotRatio,
+                                   shear, dissipated);
   return fn * n + ft;
 }
 

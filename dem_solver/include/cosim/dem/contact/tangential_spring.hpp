@@ -17,32 +17,44 @@ inline double tangentialDashpot(const TangentialInput& in, double kt) {
   return in.pm->gamma > 0.0 ? in.pm->gamma * std::sqrt(kt * in.mEff) : 0.0;
 }
 
-inline Vec3 tangentialSpring(const TangentialInput& in, double kt, double ktBefore, double ct, Vec3& shear,
-                             double& dissipated) {
-  const double fmax = in.pm->friction * in.fnMag;  // Hartmann 2022 Eq. 35: |f_s| <= mu |f_n|
-  if (fmax <= 0.0 || kt <= 0.0) {
-    shear = {};
-    return {};
-  }
+/// n: unit normal; vt: tangential relative velocity; fmax = mu |f_n| (Hartmann
+/// 2022 Eq. 35: |f_s| <= mu |f_n|).
+inline Vec3 tangentialSpring(const Vec3& n, const Vec3& vt, double fmax, double dt, double kt, double ktBefore,
+                             double ct, Vec3& shear, double& dissipated) {
+  // Written without branches (selects only, every division and root done
+  // on a safe operand), so that the batched pair loop vectorises; every select
+  // keeps the value the branched form would give.
+  const bool active = (fmax > 0.0) & (kt > 0.0);  // otherwise no spring: history and force are zero
   // Rotate the stored displacement with the contact frame: drop its normal
   // component and restore its length, so history survives normal rotation.
   const double s2 = norm2(shear);
-  Vec3 sh = shear - dot(shear, in.n) * in.n;
+  Vec3 sh = shear - dot(shear, n) * n;
   const double p2 = norm2(sh);
-  if (p2 > 0.0) sh *= std::sqrt(s2 / p2);
+  const double restore = std::sqrt(s2 / (p2 > 0.0 ? p2 : 1.0));  // every division unconditional
+  sh *= p2 > 0.0 ? restore : 1.0;
   const double before = 0.5 * ktBefore * s2;
-  sh += in.vt * in.dt;  // Hartmann 2022 Eq. 34 with the spring factored out: du_s = v_s dt
-  Vec3 ft = -kt * sh - ct * in.vt;
+  sh += vt * dt;  // Hartmann 2022 Eq. 34 with the spring factored out: du_s = v_s dt
+  Vec3 ft = -kt * sh - ct * vt;
   const double f2 = norm2(ft);
-  if (f2 > fmax * fmax) {
-    // Sliding: the force sits on the Coulomb cone and the spring relaxes to match it.
-    ft *= fmax / std::sqrt(f2);
-    sh = -(1.0 / kt) * (ft + ct * in.vt);
-  }
+  // Sliding: the force sits on the Coulomb cone and the spring relaxes to match it.
+  const bool sliding = f2 > fmax * fmax;
+  const double onCone = fmax / std::sqrt(sliding ? f2 : 1.0);
+  ft *= sliding ? onCone : 1.0;
+  const Vec3 relaxed = -(1.0 / (active ? kt : 1.0)) * (ft + ct * vt);
+  sh = select(sliding, relaxed, sh);
+  sh = select(active, sh, Vec3{});
+  ft = select(active, ft, Vec3{});
   shear = sh;
   // Energy balance: work of the tangential force not stored in the spring is lost.
-  dissipated += -dot(ft, in.vt) * in.dt - (0.5 * kt * norm2(sh) - before);
+  const double lost = -dot(ft, vt) * dt - (0.5 * kt * norm2(sh) - before);
+  dissipated += active ? lost : 0.0;
   return ft;
+}
+
+/// The same for a law's TangentialInput.
+inline Vec3 tangentialSpring(const TangentialInput& in, double kt, double ktBefore, double ct, Vec3& shear,
+                             double& dissipated) {
+  return tangentialSpring(in.n, in.vt, in.pm->friction * in.fnMag, in.dt, kt, ktBefore, ct, shear, dissipated);
 }
 
 }  // namespace cosim::dem
