@@ -310,7 +310,8 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
     };
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
-      pairSumF_[i] = pairSumT_[i] = {};
+      const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
+      if (hasRow) pairSumF_[i] = pairSumT_[i] = {};  // rows without pairs (most in a dilute flow) are not touched
       const Vec3 xi = p.x[i];
       const double ri = p.radius[i];
       const std::size_t rowMaterial = p.material[i] * materials.size();
@@ -372,8 +373,11 @@ void DemSystem::gatherForces(double dt) {
       {
         // The row side was summed in the pair loop. Pairs out of contact hold
         // zeros: summing them is cheaper than a branch.
-        double fx = pairSumF_[i].x, fy = pairSumF_[i].y, fz = pairSumF_[i].z;
-        double tx = pairSumT_[i].x, ty = pairSumT_[i].y, tz = pairSumT_[i].z;
+        // The row sums exist only for rows with pairs (memory traffic is what a dilute step costs).
+        const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
+        const Vec3 rowF = hasRow ? pairSumF_[i] : Vec3{}, rowT = hasRow ? pairSumT_[i] : Vec3{};
+        double fx = rowF.x, fy = rowF.y, fz = rowF.z;
+        double tx = rowT.x, ty = rowT.y, tz = rowT.z;
         const PairForce* pf = pairForce.data();
         const std::uint32_t* rev = neighbors.revPair.data();
         for (std::uint32_t r = neighbors.revStart[i]; r < neighbors.revStart[i + 1]; ++r) {
