@@ -310,8 +310,9 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
     };
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
-      const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
-      if (hasRow) pairSumF_[i] = pairSumT_[i] = {};  // rows without pairs (most in a dilute flow) are not touched
+      // Rows without pairs (most in a dilute flow) read and write nothing more.
+      if (neighbors.rowStart[i] == neighbors.rowStart[i + 1]) continue;
+      pairSumF_[i] = pairSumT_[i] = {};
       const Vec3 xi = p.x[i];
       const double ri = p.radius[i];
       const std::size_t rowMaterial = p.material[i] * materials.size();
