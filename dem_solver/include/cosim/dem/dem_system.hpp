@@ -88,11 +88,14 @@ class DemSystem {
   template <bool Periodic, class Normal, class Tangential>
   void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
   void gatherForces(double dt);
+  /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
+  std::size_t chunkOfPairShare(std::size_t t, std::size_t nt, std::size_t chunks, std::size_t rowsPerChunk) const;
   /// Plane candidates of each particle, with the neighbour list (see planeNear).
   void markPlaneCandidates();
   /// True when a plane moved along its normal by more than limit since the candidates were marked.
   bool planesMovedBeyond(double limit) const;
   std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
+  std::vector<double> chunkLost_;          // energy lost in each chunk of rows (pair loop)
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;
   std::array<std::string, 3> lawNames_;

@@ -20,6 +20,15 @@ inline int threadCount() {
 #endif
 }
 
+/// Threads of the enclosing parallel region (1 outside one, or when it runs serially).
+inline int teamSize() {
+#ifdef _OPENMP
+  return omp_get_num_threads();
+#else
+  return 1;
+#endif
+}
+
 inline int threadIndex() {
 #ifdef _OPENMP
   return omp_get_thread_num();
