@@ -174,8 +174,12 @@ void DemSystem::advance(double dt) {
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
     for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
+  // The closing kick inside the force loop, unless bonds add forces after it.
+  const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
+  kickInForceLoop_ = fused * dt;
   computeForces(dt);
-  integrator_->afterForces(particles, dt);
+  kickInForceLoop_ = 0.0;
+  if (fused == 0.0) integrator_->afterForces(particles, dt);
   time += dt;
   ++step;
 }
@@ -366,6 +370,7 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
 
 void DemSystem::gatherForces(double dt) {
   Particles& p = particles;
+  const double kickDt = kickInForceLoop_;
   const ContactLaw& law = *law_;
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
@@ -542,6 +547,7 @@ void DemSystem::gatherForces(double dt) {
       }
       p.f[i] = f;
       p.torque[i] = t;
+      if (kickDt > 0.0 && !p.driven[i]) kick(p, i, kickDt);  // the integrator's closing kick (fusedKick)
     }
     partial[static_cast<std::size_t>(threadIndex())] = std::move(local);
   }

@@ -18,6 +18,7 @@ class VelocityVerlet final : public Integrator {
       drift(p, i, dt);
     }
   }
+  double fusedKick() const override { return 0.5; }
   void afterForces(Particles& p, double dt) const override {
     const std::size_t n = p.size();
 #pragma omp parallel for schedule(static) if (n > kParallelMin)

@@ -96,6 +96,7 @@ class DemSystem {
   bool planesMovedBeyond(double limit) const;
   std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
   std::vector<double> chunkLost_;          // energy lost in each chunk of rows (pair loop)
+  double kickInForceLoop_ = 0.0;           // the integrator's closing kick, applied in gatherForces (0: none)
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;
   std::array<std::string, 3> lawNames_;
