@@ -169,7 +169,9 @@ void DemSystem::advance(double dt) {
   integrator_->beforeForces(particles, dt);
   // Driven particles (coupled hybrid PD particles, scene-driven spheres) are
   // not integrated; between the states sent from outside they move with their velocity.
-  for (std::size_t i = 0; i < particles.size(); ++i)
+  const std::size_t n = particles.size();
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (std::size_t i = 0; i < n; ++i)
     if (particles.driven[i]) particles.x[i] += dt * particles.v[i];
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
