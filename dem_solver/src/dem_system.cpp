@@ -11,12 +11,6 @@
 namespace cosim::dem {
 
 namespace {
-// What one thread accumulates in the gather loop.
-struct Partial {
-  double dissipated = 0.0, work = 0.0;
-  std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
-};
-
 // What the gather loop reads of one plane wall, kept together: most particles
 // touch no wall, and their test should cost a dot product and a compare.
 struct PlaneView {
@@ -64,8 +58,9 @@ struct ContactBatch {
 
 // The contact forces of a batch (each lane independent of the others).
 template <bool Periodic, class Normal, class Tangential>
-COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p, const PairMaterial* pairs, const Normal& normalLaw,
-                      const Tangential& tangentialLaw, const Mat3& gradV, double dt) {
+COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p, const PairMaterial* pairs,
+                                            const Normal& normalLaw, const Tangential& tangentialLaw, const Mat3& gradV,
+                                            double dt) {
   const std::size_t count = b.count;
   // ivdep rather than omp simd: the latter privatises the law's small structs
   // per lane, which stops GCC 12 from vectorising.
@@ -286,7 +281,8 @@ void DemSystem::wrapIntoCell() {
   }
 }
 
-std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt, std::size_t chunks, std::size_t rowsPerChunk) const {
+std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt, std::size_t chunks,
+                                        std::size_t rowsPerChunk) const {
   if (t >= nt) return chunks;
   // The first chunk whose first row comes at or after t/nt of the pairs.
   const std::size_t n = particles.size();
@@ -312,7 +308,6 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   // contiguous run keeps each thread's rows in its own cache). The energy lost
   // is summed per chunk and the chunks in order: it does not depend on the
   // thread count.
-  constexpr std::size_t kRowsPerChunk = 512;
   const std::size_t chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
   chunkLost_.assign(chunks, 0.0);
   const PeriodicCell& box = cell;
@@ -322,7 +317,8 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
     ContactBatch batch;
     // Evaluates the batch's contacts and hands each result to its pair and row.
     const auto flush = [&] {
-      evaluateContacts<Periodic>(batch, p, materials.pairs().data(), normalLaw, tangentialLaw, box.velocityGradient, dt);
+      evaluateContacts<Periodic>(batch, p, materials.pairs().data(), normalLaw, tangentialLaw, box.velocityGradient,
+                                 dt);
       for (std::size_t e = 0; e < batch.count; ++e) {
         const std::uint32_t k = batch.pair[e], i = batch.row[e];
         const Vec3 f{batch.fx[e], batch.fy[e], batch.fz[e]};
@@ -376,7 +372,10 @@ void DemSystem::gatherForces(double dt) {
   const ContactLaw& law = *law_;
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
-  std::vector<Partial> partial(static_cast<std::size_t>(threadCount()));
+  // Sums per chunk of particles, added in chunk order: wall forces (which
+  // drive servo walls), energy lost and work do not depend on the thread count.
+  const std::size_t chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
+  gatherPartials_.resize(chunks);
   std::vector<PlaneView> views(nw);
   for (std::size_t wl = 0; wl < nw; ++wl)
     views[wl] = {planes[wl].point, planes[wl].normal, planeTouch[wl].data(), planeShear[wl].data(),
@@ -391,171 +390,175 @@ void DemSystem::gatherForces(double dt) {
   }
 #pragma omp parallel if (n > kParallelMin)
   {
-    Partial local;
-    local.planeForce.assign(nw, {});
-    local.planeTorque.assign(nw, {});
-    local.meshForce.assign(nm, {});
-    local.meshTorque.assign(nm, {});
     std::vector<MeshCandidate> cand, kept;
 #pragma omp for schedule(static)
-    for (std::size_t i = 0; i < n; ++i) {
-      const double w = p.weight[i];
-      // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
-      // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
-      Vec3 f = p.driven[i] ? p.fExt[i] : (w * p.mass[i]) * gravity + p.fExt[i];
-      Vec3 t{};
-      {
-        // The row side was summed in the pair loop. Pairs out of contact hold
-        // zeros: summing them is cheaper than a branch.
-        // The row sums exist only for rows with pairs (memory traffic is what a dilute step costs).
-        const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
-        const Vec3 rowF = hasRow ? pairSumF_[i] : Vec3{}, rowT = hasRow ? pairSumT_[i] : Vec3{};
-        double fx = rowF.x, fy = rowF.y, fz = rowF.z;
-        double tx = rowT.x, ty = rowT.y, tz = rowT.z;
-        const PairForce* pf = pairForce.data();
-        const std::uint32_t* rev = neighbors.revPair.data();
-        for (std::uint32_t r = neighbors.revStart[i]; r < neighbors.revStart[i + 1]; ++r) {
-          const PairForce& q = pf[rev[r]];
-          fx -= q.force.x; fy -= q.force.y; fz -= q.force.z;
-          tx += q.torqueJ.x; ty += q.torqueJ.y; tz += q.torqueJ.z;
-        }
-        f += Vec3{fx, fy, fz};
-        t = {tx, ty, tz};
-      }
-      if (p.fExt[i].x != 0.0 || p.fExt[i].y != 0.0 || p.fExt[i].z != 0.0) local.work += dot(p.fExt[i], p.v[i]) * dt;
-      const double ri = p.radius[i];
-      const Vec3 xi = p.x[i];
-      // Only the planes marked near i; in increasing order, as over all of them.
-      for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
-        const auto wl = static_cast<std::size_t>(std::countr_zero(near));
-        if (wl >= nw) break;
-        const PlaneView& view = views[wl];
-        const double overlap = ri - dot(xi - view.point, view.normal);  // PlaneWall::distance
-        if (overlap <= 0.0) {
-          if (view.touch[i]) {  // contact lost: its history ends
-            view.touch[i] = 0;
-            view.shear[i] = {};
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+      GatherPartial& local = gatherPartials_[chunk];
+      double chunkDissipated = 0.0, chunkWork = 0.0;  // in registers, not through `local`
+      local.planeForce.assign(nw, {});
+      local.planeTorque.assign(nw, {});
+      local.meshForce.assign(nm, {});
+      local.meshTorque.assign(nm, {});
+      for (std::size_t i = chunk * kRowsPerChunk; i < std::min(n, (chunk + 1) * kRowsPerChunk); ++i) {
+        const double w = p.weight[i];
+        // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
+        // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
+        Vec3 f = p.driven[i] ? p.fExt[i] : (w * p.mass[i]) * gravity + p.fExt[i];
+        Vec3 t{};
+        {
+          // The row side was summed in the pair loop. Pairs out of contact hold
+          // zeros: summing them is cheaper than a branch.
+          // The row sums exist only for rows with pairs (memory traffic is what a dilute step costs).
+          const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
+          const Vec3 rowF = hasRow ? pairSumF_[i] : Vec3{}, rowT = hasRow ? pairSumT_[i] : Vec3{};
+          double fx = rowF.x, fy = rowF.y, fz = rowF.z;
+          double tx = rowT.x, ty = rowT.y, tz = rowT.z;
+          const PairForce* pf = pairForce.data();
+          const std::uint32_t* rev = neighbors.revPair.data();
+          for (std::uint32_t r = neighbors.revStart[i]; r < neighbors.revStart[i + 1]; ++r) {
+            const PairForce& q = pf[rev[r]];
+            fx -= q.force.x; fy -= q.force.y; fz -= q.force.z;
+            tx += q.torqueJ.x; ty += q.torqueJ.y; tz += q.torqueJ.z;
           }
-          continue;
+          f += Vec3{fx, fy, fz};
+          t = {tx, ty, tz};
         }
-        const PlaneWall& wall = planes[wl];
-        view.touch[i] = 1;
-        Vec3& shear = view.shear[i];
-        const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
-        const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
-        double lost = 0.0;
-        Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
-                            dt, shear, lost);
-        fw *= w;
-        view.contactForce[i] = fw;
-        local.dissipated += w * lost;
-        local.work += dot(fw, wall.velocity) * dt;
-        f += fw;
-        t += cross(ci, fw);
-        local.planeForce[wl] -= fw;
-        local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
-      }
-      for (std::size_t g = 0; g < nm; ++g) {
-        TriangleWallGroup& m = meshes[g];
-        auto& slots = m.history[i];
-        cand.clear();
-        for (std::uint32_t c = m.candStart[i]; c < m.candStart[i + 1]; ++c) {
-          const auto& tri = m.triangles[m.candTri[c]];
-          const ClosestPoint cp =
-              closestPointOnTriangle(p.x[i], m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
-          const Vec3 d = p.x[i] - cp.point;
-          const double dist2 = norm2(d);
-          if (dist2 >= ri * ri || dist2 <= 0.0) continue;
-          const double dist = std::sqrt(dist2);
-          cand.push_back({m.candTri[c], ri - dist, cp.point, (1.0 / dist) * d, cp.bary});
-        }
-        if (cand.empty()) {
-          for (auto& s : slots) s = {};
-          continue;
-        }
-        // Cheng 2022 Alg. 1, Modification 1: largest overlap first; a contact with
-        // a triangle that meets a kept one at a flat or convex angle as seen from
-        // the particle (no vertex of it in front of the kept triangle's plane)
-        // is the same contact seen twice and is dropped. Concave pairs stay.
-        std::sort(cand.begin(), cand.end(), [](const MeshCandidate& a, const MeshCandidate& b) {
-          return a.overlap != b.overlap ? a.overlap > b.overlap : a.triangle < b.triangle;
-        });
-        kept.clear();
-        for (const MeshCandidate& c : cand) {
-          bool same = false;
-          for (const MeshCandidate& k : kept) {
-            const auto& tk = m.triangles[k.triangle];
-            const Vec3& a = m.vertices[tk[0]];
-            Vec3 nk = cross(m.vertices[tk[1]] - a, m.vertices[tk[2]] - a);
-            nk *= (dot(nk, p.x[i] - a) >= 0.0 ? 1.0 : -1.0) / norm(nk);  // towards the particle
-            double front = -1.0;
-            for (std::uint32_t v : m.triangles[c.triangle]) front = std::max(front, dot(m.vertices[v] - a, nk));
-            if (front <= 1e-9 * ri) same = true;
+        if (p.fExt[i].x != 0.0 || p.fExt[i].y != 0.0 || p.fExt[i].z != 0.0) chunkWork += dot(p.fExt[i], p.v[i]) * dt;
+        const double ri = p.radius[i];
+        const Vec3 xi = p.x[i];
+        // Only the planes marked near i; in increasing order, as over all of them.
+        for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
+          const auto wl = static_cast<std::size_t>(std::countr_zero(near));
+          if (wl >= nw) break;
+          const PlaneView& view = views[wl];
+          const double overlap = ri - dot(xi - view.point, view.normal);  // PlaneWall::distance
+          if (overlap <= 0.0) {
+            if (view.touch[i]) {  // contact lost: its history ends
+              view.touch[i] = 0;
+              view.shear[i] = {};
+            }
+            continue;
           }
-          if (!same && kept.size() < static_cast<std::size_t>(TriangleWallGroup::kSlots)) kept.push_back(c);
-        }
-        // Contact history: the main contact carries slot 0 from triangle to
-        // triangle; further (concave) contacts keep theirs by triangle id.
-        std::array<TriangleWallGroup::Slot, TriangleWallGroup::kSlots> next{};
-        for (std::size_t c = 0; c < kept.size(); ++c) {
-          next[c].triangle = kept[c].triangle;
-          if (c == 0) {
-            next[0].shear = slots[0].shear;
-          } else {
-            for (std::size_t s = 1; s < slots.size(); ++s)
-              if (slots[s].triangle == kept[c].triangle) next[c].shear = slots[s].shear;
-          }
-        }
-        std::array<Vec3, TriangleWallGroup::kSlots> fc{};
-        std::array<double, TriangleWallGroup::kSlots> lostc{};
-        double sumF = 0.0;
-        const PairMaterial& pm = materials.pair(p.material[i], m.material);
-        for (std::size_t c = 0; c < kept.size(); ++c) {
-          const auto& tri = m.triangles[kept[c].triangle];
-          const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
-                          kept[c].bary[2] * m.velocities[tri[2]];
-          const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
-          const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
-          fc[c] = law.force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
-          sumF += norm(fc[c]);
-        }
-        slots = next;
-        for (std::size_t c = 0; c < kept.size(); ++c) {
-          // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
-          const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
-          const Vec3 fw = (w * wgt) * fc[c];
-          const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
-          const auto& tri = m.triangles[kept[c].triangle];
-          const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
-                          kept[c].bary[2] * m.velocities[tri[2]];
-          local.dissipated += w * wgt * lostc[c];
-          local.work += dot(fw, vw) * dt;
+          const PlaneWall& wall = planes[wl];
+          view.touch[i] = 1;
+          Vec3& shear = view.shear[i];
+          const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
+          const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
+          double lost = 0.0;
+          Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
+                              dt, shear, lost);
+          fw *= w;
+          view.contactForce[i] = fw;
+          chunkDissipated += w * lost;
+          chunkWork += dot(fw, wall.velocity) * dt;
           f += fw;
           t += cross(ci, fw);
-          local.meshForce[g] -= fw;
-          local.meshTorque[g] -= cross(kept[c].point, fw);
-          meshOut[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
-                                                           kept[c].bary, -fw};
+          local.planeForce[wl] -= fw;
+          local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
         }
-        meshCount[i * nm + g] = static_cast<std::uint8_t>(kept.size());
+        for (std::size_t g = 0; g < nm; ++g) {
+          TriangleWallGroup& m = meshes[g];
+          auto& slots = m.history[i];
+          cand.clear();
+          for (std::uint32_t c = m.candStart[i]; c < m.candStart[i + 1]; ++c) {
+            const auto& tri = m.triangles[m.candTri[c]];
+            const ClosestPoint cp =
+                closestPointOnTriangle(p.x[i], m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
+            const Vec3 d = p.x[i] - cp.point;
+            const double dist2 = norm2(d);
+            if (dist2 >= ri * ri || dist2 <= 0.0) continue;
+            const double dist = std::sqrt(dist2);
+            cand.push_back({m.candTri[c], ri - dist, cp.point, (1.0 / dist) * d, cp.bary});
+          }
+          if (cand.empty()) {
+            for (auto& s : slots) s = {};
+            continue;
+          }
+          // Cheng 2022 Alg. 1, Modification 1: largest overlap first; a contact with
+          // a triangle that meets a kept one at a flat or convex angle as seen from
+          // the particle (no vertex of it in front of the kept triangle's plane)
+          // is the same contact seen twice and is dropped. Concave pairs stay.
+          std::sort(cand.begin(), cand.end(), [](const MeshCandidate& a, const MeshCandidate& b) {
+            return a.overlap != b.overlap ? a.overlap > b.overlap : a.triangle < b.triangle;
+          });
+          kept.clear();
+          for (const MeshCandidate& c : cand) {
+            bool same = false;
+            for (const MeshCandidate& k : kept) {
+              const auto& tk = m.triangles[k.triangle];
+              const Vec3& a = m.vertices[tk[0]];
+              Vec3 nk = cross(m.vertices[tk[1]] - a, m.vertices[tk[2]] - a);
+              nk *= (dot(nk, p.x[i] - a) >= 0.0 ? 1.0 : -1.0) / norm(nk);  // towards the particle
+              double front = -1.0;
+              for (std::uint32_t v : m.triangles[c.triangle]) front = std::max(front, dot(m.vertices[v] - a, nk));
+              if (front <= 1e-9 * ri) same = true;
+            }
+            if (!same && kept.size() < static_cast<std::size_t>(TriangleWallGroup::kSlots)) kept.push_back(c);
+          }
+          // Contact history: the main contact carries slot 0 from triangle to
+          // triangle; further (concave) contacts keep theirs by triangle id.
+          std::array<TriangleWallGroup::Slot, TriangleWallGroup::kSlots> next{};
+          for (std::size_t c = 0; c < kept.size(); ++c) {
+            next[c].triangle = kept[c].triangle;
+            if (c == 0) {
+              next[0].shear = slots[0].shear;
+            } else {
+              for (std::size_t s = 1; s < slots.size(); ++s)
+                if (slots[s].triangle == kept[c].triangle) next[c].shear = slots[s].shear;
+            }
+          }
+          std::array<Vec3, TriangleWallGroup::kSlots> fc{};
+          std::array<double, TriangleWallGroup::kSlots> lostc{};
+          double sumF = 0.0;
+          const PairMaterial& pm = materials.pair(p.material[i], m.material);
+          for (std::size_t c = 0; c < kept.size(); ++c) {
+            const auto& tri = m.triangles[kept[c].triangle];
+            const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                            kept[c].bary[2] * m.velocities[tri[2]];
+            const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+            const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
+            fc[c] = law.force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
+            sumF += norm(fc[c]);
+          }
+          slots = next;
+          for (std::size_t c = 0; c < kept.size(); ++c) {
+            // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
+            const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
+            const Vec3 fw = (w * wgt) * fc[c];
+            const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+            const auto& tri = m.triangles[kept[c].triangle];
+            const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                            kept[c].bary[2] * m.velocities[tri[2]];
+            chunkDissipated += w * wgt * lostc[c];
+            chunkWork += dot(fw, vw) * dt;
+            f += fw;
+            t += cross(ci, fw);
+            local.meshForce[g] -= fw;
+            local.meshTorque[g] -= cross(kept[c].point, fw);
+            meshOut[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
+                                                             kept[c].bary, -fw};
+          }
+          meshCount[i * nm + g] = static_cast<std::uint8_t>(kept.size());
+        }
+        if (massDamping > 0.0 && !p.driven[i]) {
+          // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
+          const Vec3 fd = (-massDamping * w * p.mass[i]) * p.v[i];
+          const Vec3 td = (-massDamping * w * p.inertia[i]) * p.omega[i];
+          chunkDissipated -= (dot(fd, p.v[i]) + dot(td, p.omega[i])) * dt;
+          f += fd;
+          t += td;
+        }
+        p.f[i] = f;
+        p.torque[i] = t;
+        if (kickDt > 0.0 && !p.driven[i]) kick(p, i, kickDt);  // the integrator's closing kick (fusedKick)
       }
-      if (massDamping > 0.0 && !p.driven[i]) {
-        // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
-        const Vec3 fd = (-massDamping * w * p.mass[i]) * p.v[i];
-        const Vec3 td = (-massDamping * w * p.inertia[i]) * p.omega[i];
-        local.dissipated -= (dot(fd, p.v[i]) + dot(td, p.omega[i])) * dt;
-        f += fd;
-        t += td;
-      }
-      p.f[i] = f;
-      p.torque[i] = t;
-      if (kickDt > 0.0 && !p.driven[i]) kick(p, i, kickDt);  // the integrator's closing kick (fusedKick)
+      local.dissipated = chunkDissipated;
+      local.work = chunkWork;
     }
-    partial[static_cast<std::size_t>(threadIndex())] = std::move(local);
   }
   for (auto& w : planes) w.force = w.torque = {};
   for (auto& m : meshes) m.force = m.torque = {};
-  for (const Partial& part : partial) {
+  for (const GatherPartial& part : gatherPartials_) {
     dissipated += part.dissipated;
     externalWork += part.work;
     for (std::size_t wl = 0; wl < nw && wl < part.planeForce.size(); ++wl) {

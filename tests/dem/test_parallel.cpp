@@ -1,7 +1,10 @@
 // Results do not depend on the thread count: pair forces are gathered per
-// particle in a fixed order, so 1 and 2 threads give the same bits.
+// particle in a fixed order, and wall forces and energy sums are added per
+// fixed chunk of particles, so 1 and 2 threads give the same bits (also
+// under a servo lid, which moves with the summed wall force).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <random>
 
@@ -29,6 +32,17 @@ DemSystem pile() {
   }
   PlaneWall floor;
   s.planes.push_back(floor);
+  // A servo lid just above the pile: its motion follows the wall force summed
+  // over all particles, so it feeds any thread-count dependence of that sum back
+  // into the particles.
+  PlaneWall lid;
+  lid.point = {0, 0, 0.0305};
+  lid.normal = {0, 0, -1};
+  lid.mode = PlaneWall::Mode::servo;
+  lid.servoStress = 2e3;
+  lid.servoArea = 0.03 * 0.03;
+  lid.servoGain = 0.05;
+  s.planes.push_back(lid);
   s.gravity = {0, 0, -9.81};
   s.neighbors.skin = 1e-4;
   s.initialize();
@@ -52,6 +66,14 @@ TEST(DemParallel, OneAndTwoThreadsGiveIdenticalBits) {
   EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.size() * sizeof(Vec3)), 0);
   EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.size() * sizeof(Vec3)), 0);
   EXPECT_EQ(std::memcmp(a.omega.data(), b.omega.data(), a.size() * sizeof(Vec3)), 0);
+  // The lid moved and pushed, and every sum agrees to the bit.
+  EXPECT_GT(std::fabs(runs[0].planes[1].force.z), 0.0);
+  EXPECT_NE(runs[0].planes[1].point.z, 0.0305);
+  EXPECT_EQ(runs[0].planes[1].point.z, runs[1].planes[1].point.z);
+  EXPECT_EQ(runs[0].planes[0].force.z, runs[1].planes[0].force.z);
+  EXPECT_GT(runs[0].dissipated, 0.0);
+  EXPECT_EQ(runs[0].dissipated, runs[1].dissipated);
+  EXPECT_EQ(runs[0].externalWork, runs[1].externalWork);
 #else
   GTEST_SKIP() << "built without OpenMP";
 #endif

@@ -95,7 +95,16 @@ class DemSystem {
   /// True when a plane moved along its normal by more than limit since the candidates were marked.
   bool planesMovedBeyond(double limit) const;
   std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
+  /// Force loops work in chunks of this many particles (rows); their sums
+  /// are added in chunk order, whatever thread took a chunk.
+  static constexpr std::size_t kRowsPerChunk = 512;
   std::vector<double> chunkLost_;          // energy lost in each chunk of rows (pair loop)
+  /// What one chunk of the gather loop sums up.
+  struct GatherPartial {
+    double dissipated = 0.0, work = 0.0;
+    std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
+  };
+  std::vector<GatherPartial> gatherPartials_;
   double kickInForceLoop_ = 0.0;           // the integrator's closing kick, applied in gatherForces (0: none)
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;
