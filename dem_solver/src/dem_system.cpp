@@ -173,15 +173,13 @@ void DemSystem::advance(double dt) {
     for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
   // The closing kick inside the force loop, unless bonds add forces after it.
   const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
-  kickInForceLoop_ = fused * dt;
-  computeForces(dt);
-  kickInForceLoop_ = 0.0;
+  computeForces(dt, fused * dt);
   if (fused == 0.0) integrator_->afterForces(particles, dt);
   time += dt;
   ++step;
 }
 
-void DemSystem::computeForces(double dt) {
+void DemSystem::computeForces(double dt, double closingKick) {
   bool rebuild = neighbors.needsRebuild(particles, &cell);
   for (const auto& m : meshes) rebuild = rebuild || m.movedBeyond(0.5 * neighbors.skin);
   rebuild = rebuild || planeNear.size() != particles.size() || planesMovedBeyond(0.5 * neighbors.skin);
@@ -220,7 +218,7 @@ void DemSystem::computeForces(double dt) {
     }
   }
   pairForces(dt);
-  gatherForces(dt);
+  gatherForces(dt, closingKick);
   if (bonds.size() > 0) bonds.addForces(particles, cell, particles.f);
 }
 
@@ -281,8 +279,8 @@ void DemSystem::wrapIntoCell() {
   }
 }
 
-std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt, std::size_t chunks,
-                                        std::size_t rowsPerChunk) const {
+std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt) const {
+  const std::size_t chunks = chunkCount();
   if (t >= nt) return chunks;
   // The first chunk whose first row comes at or after t/nt of the pairs.
   const std::size_t n = particles.size();
@@ -290,7 +288,7 @@ std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt, std::size
   std::size_t lo = 0, hi = chunks;
   while (lo < hi) {
     const std::size_t mid = (lo + hi) / 2;
-    if (neighbors.rowStart[std::min(n, mid * rowsPerChunk)] < target) lo = mid + 1;
+    if (neighbors.rowStart[std::min(n, mid * kRowsPerChunk)] < target) lo = mid + 1;
     else hi = mid;
   }
   return lo;
@@ -308,8 +306,7 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   // contiguous run keeps each thread's rows in its own cache). The energy lost
   // is summed per chunk and the chunks in order: it does not depend on the
   // thread count.
-  const std::size_t chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
-  chunkLost_.assign(chunks, 0.0);
+  chunkLost_.assign(chunkCount(), 0.0);
   const PeriodicCell& box = cell;
 #pragma omp parallel if (n > kParallelMin)
   {
@@ -332,11 +329,10 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
       batch.count = 0;
     };
     const std::size_t t = static_cast<std::size_t>(threadIndex()), nt = static_cast<std::size_t>(teamSize());
-    const std::size_t cBegin = chunkOfPairShare(t, nt, chunks, kRowsPerChunk);
-    const std::size_t cEnd = chunkOfPairShare(t + 1, nt, chunks, kRowsPerChunk);
+    const std::size_t cBegin = chunkOfPairShare(t, nt), cEnd = chunkOfPairShare(t + 1, nt);
     for (std::size_t c = cBegin; c < cEnd; ++c) {
       local = 0.0;
-      for (std::size_t i = c * kRowsPerChunk; i < std::min(n, (c + 1) * kRowsPerChunk); ++i) {
+      for (std::size_t i = c * kRowsPerChunk; i < chunkEnd(c); ++i) {
         // Rows without pairs (most in a dilute flow) read and write nothing more.
         if (neighbors.rowStart[i] == neighbors.rowStart[i + 1]) continue;
         pairSumF_[i] = pairSumT_[i] = {};
@@ -366,15 +362,14 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   for (double v : chunkLost_) dissipated += v;
 }
 
-void DemSystem::gatherForces(double dt) {
+void DemSystem::gatherForces(double dt, double closingKick) {
   Particles& p = particles;
-  const double kickDt = kickInForceLoop_;
   const ContactLaw& law = *law_;
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
   // Sums per chunk of particles, added in chunk order: wall forces (which
   // drive servo walls), energy lost and work do not depend on the thread count.
-  const std::size_t chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
+  const std::size_t chunks = chunkCount();
   gatherPartials_.resize(chunks);
   std::vector<PlaneView> views(nw);
   for (std::size_t wl = 0; wl < nw; ++wl)
@@ -399,16 +394,16 @@ void DemSystem::gatherForces(double dt) {
       local.planeTorque.assign(nw, {});
       local.meshForce.assign(nm, {});
       local.meshTorque.assign(nm, {});
-      for (std::size_t i = chunk * kRowsPerChunk; i < std::min(n, (chunk + 1) * kRowsPerChunk); ++i) {
+      for (std::size_t i = chunk * kRowsPerChunk; i < chunkEnd(chunk); ++i) {
         const double w = p.weight[i];
         // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
         // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
         Vec3 f = p.driven[i] ? p.fExt[i] : (w * p.mass[i]) * gravity + p.fExt[i];
         Vec3 t{};
         {
-          // The row side was summed in the pair loop. Pairs out of contact hold
-          // zeros: summing them is cheaper than a branch.
-          // The row sums exist only for rows with pairs (memory traffic is what a dilute step costs).
+          // The row side was summed in the pair loop, for rows with pairs only
+          // (a dilute step is bound by memory traffic). Pairs out of contact
+          // hold zeros: summing them is cheaper than a branch.
           const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
           const Vec3 rowF = hasRow ? pairSumF_[i] : Vec3{}, rowT = hasRow ? pairSumT_[i] : Vec3{};
           double fx = rowF.x, fy = rowF.y, fz = rowF.z;
@@ -550,7 +545,7 @@ void DemSystem::gatherForces(double dt) {
         }
         p.f[i] = f;
         p.torque[i] = t;
-        if (kickDt > 0.0 && !p.driven[i]) kick(p, i, kickDt);  // the integrator's closing kick (fusedKick)
+        if (closingKick > 0.0 && !p.driven[i]) kick(p, i, closingKick);  // Integrator::fusedKick
       }
       local.dissipated = chunkDissipated;
       local.work = chunkWork;

@@ -2,6 +2,7 @@
 // The DEM model: particles, materials, the composed contact law, walls, the
 // neighbour list and the integrator, advanced one step at a time. Everything a
 // run needs is in here, so a checkpoint of this object is a full restart.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -56,8 +57,10 @@ class DemSystem {
   void initialize();
   /// One time step of size dt.
   void advance(double dt);
-  /// Forces and torques of the current positions and velocities.
-  void computeForces(double dt);
+  /// Forces and torques of the current positions and velocities. With
+  /// closingKick > 0 each free particle is then kicked over closingKick
+  /// (Integrator::fusedKick) as soon as its force is complete.
+  void computeForces(double dt, double closingKick = 0.0);
 
   /// x_i - x_j of listed pair k of row i (nearest image in a periodic cell).
   Vec3 pairVector(std::size_t i, std::size_t k) const {
@@ -87,9 +90,9 @@ class DemSystem {
   void pairLoopFor(const Normal& normal, const Tangential& tangential, double dt);
   template <bool Periodic, class Normal, class Tangential>
   void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
-  void gatherForces(double dt);
+  void gatherForces(double dt, double closingKick);
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
-  std::size_t chunkOfPairShare(std::size_t t, std::size_t nt, std::size_t chunks, std::size_t rowsPerChunk) const;
+  std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
   /// Plane candidates of each particle, with the neighbour list (see planeNear).
   void markPlaneCandidates();
   /// True when a plane moved along its normal by more than limit since the candidates were marked.
@@ -98,6 +101,9 @@ class DemSystem {
   /// Force loops work in chunks of this many particles (rows); their sums
   /// are added in chunk order, whatever thread took a chunk.
   static constexpr std::size_t kRowsPerChunk = 512;
+  std::size_t chunkCount() const { return (particles.size() + kRowsPerChunk - 1) / kRowsPerChunk; }
+  /// One past the last particle (row) of chunk c.
+  std::size_t chunkEnd(std::size_t c) const { return std::min(particles.size(), (c + 1) * kRowsPerChunk); }
   std::vector<double> chunkLost_;          // energy lost in each chunk of rows (pair loop)
   /// What one chunk of the gather loop sums up.
   struct GatherPartial {
@@ -105,7 +111,6 @@ class DemSystem {
     std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
   };
   std::vector<GatherPartial> gatherPartials_;
-  double kickInForceLoop_ = 0.0;           // the integrator's closing kick, applied in gatherForces (0: none)
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;
   std::array<std::string, 3> lawNames_;
