@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <Eigen/Dense>
 #include <cmath>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "cosim/pd/model.hpp"
 #include "surface_factors.hpp"
@@ -34,6 +37,7 @@ class Lps final : public PdModel {
         m_[i] += weight_[k] * b.length[k] * b.length[k] * p.volume[b.neighbor[k]];  // Eq. 19
       }
     buildReverse(body);
+    buildPairs(body);
     if (body.options.surfaceCorrection) surfaceCorrection(body);
     // Per-bond constants of the two bond loops, so they gather no partner
     // volume and multiply no factors: Eq. 20's h w |xi| V_J and w beta V_J.
@@ -52,6 +56,10 @@ class Lps final : public PdModel {
     const auto& b = body.bonds;
     const auto& p = body.particles;
     const long n = static_cast<long>(body.end - body.begin);
+    if (!corrected_ && pairwise(body)) {
+      pairForces(body, force);
+      return;
+    }
     updateExtensions(body);
     if (!corrected_) {
       uncorrectedForces(body, force);
@@ -185,13 +193,7 @@ class Lps final : public PdModel {
     const auto& b = body.bonds;
     const auto& p = body.particles;
     const long n = static_cast<long>(body.end - body.begin);
-    coefA_.resize(static_cast<std::size_t>(n));
-    coefB_.resize(static_cast<std::size_t>(n));
-    for (std::size_t il = 0; il < coefA_.size(); ++il) {
-      const double alpha = m_[il] > 0.0 ? 15.0 * G_ / m_[il] : 0.0;
-      coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha * theta_[il] / 3.0 : 0.0;
-      coefB_[il] = alpha;
-    }
+    particleCoefficients(n);
     const double* x = x_.data();
     const std::uint32_t* nb = b.neighbor.data();
     const double* len = b.length.data();
@@ -220,6 +222,126 @@ class Lps final : public PdModel {
       }
       const double f[3] = {f0, f1, f2};
       storeBondSum(force, p, first + static_cast<std::size_t>(il), f);
+    }
+  }
+
+  // Per-particle A = 3 K theta / m - alpha theta / 3 and B = alpha of t_IJ (see above).
+  void particleCoefficients(long n) {
+    coefA_.resize(static_cast<std::size_t>(n));
+    coefB_.resize(static_cast<std::size_t>(n));
+    for (std::size_t il = 0; il < coefA_.size(); ++il) {
+      const double alpha = m_[il] > 0.0 ? 15.0 * G_ / m_[il] : 0.0;
+      coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha * theta_[il] / 3.0 : 0.0;
+      coefB_[il] = alpha;
+    }
+  }
+
+  // ---- Pairwise loops (uncorrected LPS on one thread) ----------------------
+  // Visiting each pair once, from its first particle, takes one root and one
+  // read of the partner's position, index, |xi| and w beta for both
+  // directions (w beta V_J is formed from the particle volumes): 1.3-1.45x
+  // faster than the row loops on one thread (docs/pd.md). Y_JI = -Y_IJ and
+  // e_JI = e_IJ exactly, and every particle's sums take their terms in the
+  // order of its row (earlier partners' terms arrive first, in ascending
+  // order, then its own row adds the later ones), so theta and the forces
+  // are bitwise those of the row loops. Such loops write both ends of a
+  // pair, so they run only where no other thread shares the body.
+
+  /// Whether the body's bond loops run on this thread alone (a small body,
+  /// one thread, or bodies already shared out over threads) and no bond is
+  /// broken (the pair lists carry no flags; LPS has no breakage criterion).
+  bool pairwise(const BodyContext& body) const {
+#ifdef _OPENMP
+    const bool oneThread = body.end - body.begin <= static_cast<std::size_t>(kOmpMinParticles) ||
+                           omp_get_max_threads() == 1 || omp_in_parallel();
+#else
+    const bool oneThread = true;
+#endif
+    const auto& broken = body.bonds.broken;
+    return oneThread && std::find(broken.begin(), broken.end(), std::uint8_t{1}) == broken.end();
+  }
+
+  // Each bond i -> j with j after i, in row order.
+  void buildPairs(const BodyContext& body) {
+    const auto& b = body.bonds;
+    const std::size_t n = b.rows();
+    pairOffset_.assign(n + 1, 0);
+    pairPartner_.clear(), pairLength_.clear(), pairWeight_.clear();
+    for (std::size_t il = 0; il < n; ++il) {
+      for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
+        if (b.neighbor[k] <= body.begin + il) continue;
+        // w depends on |xi| only and beta is symmetric: weight_ is the pair's.
+        pairPartner_.push_back(static_cast<std::uint32_t>(b.neighbor[k] - body.begin));
+        pairLength_.push_back(b.length[k]);
+        pairWeight_.push_back(weight_[k]);
+      }
+      pairOffset_[il + 1] = pairPartner_.size();
+    }
+    pairExtension_.assign(pairPartner_.size(), 0.0);
+  }
+
+  void pairForces(const BodyContext& body, std::vector<double>& force) {
+    currentPositions(body, x_);
+    uOfExtensions_.clear();  // e_ is not filled here: energyDensity recomputes it
+    pairExtensions(body);
+    particleCoefficients(static_cast<long>(body.end - body.begin));
+    pairBondForces(body, force);
+  }
+
+  // e (Eq. 18) per pair and theta (Eq. 20); thetaCoef_ = (w beta V_J) |xi|.
+  void pairExtensions(const BodyContext& body) {
+    const std::size_t n = body.end - body.begin;
+    const double* x = x_.data();
+    const double* V = body.particles.volume.data() + body.begin;
+    std::fill(theta_.begin(), theta_.end(), 0.0);
+    for (std::size_t il = 0; il < n; ++il) {
+      const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2], Vi = V[il];
+      double th = theta_[il];
+      for (std::size_t q = pairOffset_[il]; q < pairOffset_[il + 1]; ++q) {
+        const std::size_t jl = pairPartner_[q];
+        const double* xj = x + 3 * jl;
+        const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
+        const double L = pairLength_[q], w = pairWeight_[q];
+        const double ek = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2) - L;
+        pairExtension_[q] = ek;
+        th += w * V[jl] * L * ek;
+        theta_[jl] += w * Vi * L * ek;
+      }
+      theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
+    }
+  }
+
+  // s = (t_IJ + t_JI) w beta V_J / |Y| per direction, f_I = V_I sum s Y (Eq. 14).
+  void pairBondForces(const BodyContext& body, std::vector<double>& force) {
+    const std::size_t n = body.end - body.begin;
+    const double* x = x_.data();
+    const double* V = body.particles.volume.data() + body.begin;
+    const double* A = coefA_.data();
+    const double* B = coefB_.data();
+    pairForce_.assign(3 * n, 0.0);
+    double* sums = pairForce_.data();
+    for (std::size_t il = 0; il < n; ++il) {
+      const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
+      const double Ai = A[il], Bi = B[il], Vi = V[il];
+      double f0 = sums[3 * il], f1 = sums[3 * il + 1], f2 = sums[3 * il + 2];
+      for (std::size_t q = pairOffset_[il]; q < pairOffset_[il + 1]; ++q) {
+        const std::size_t jl = pairPartner_[q];
+        const double* xj = x + 3 * jl;
+        const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
+        const double L = pairLength_[q], w = pairWeight_[q], ek = pairExtension_[q];
+        const double tSum = (Ai + A[jl]) * L + (Bi + B[jl]) * ek;
+        const double Y = ek + L;
+        const double si = tSum * (w * V[jl]) / Y, sj = tSum * (w * Vi) / Y;
+        f0 += si * y0;
+        f1 += si * y1;
+        f2 += si * y2;
+        double* fj = sums + 3 * jl;
+        fj[0] -= sj * y0;
+        fj[1] -= sj * y1;
+        fj[2] -= sj * y2;
+      }
+      const double f[3] = {f0, f1, f2};
+      storeBondSum(force, body.particles, body.begin + il, f);
     }
   }
 
@@ -335,6 +457,11 @@ class Lps final : public PdModel {
   mutable std::vector<double> theta_, e_, x_;  // scratch of the current configuration
   mutable std::vector<double> uOfExtensions_;  // the body's displacements e_ and theta_ belong to
   std::vector<std::size_t> reverse_;
+  // Pair lists of the pairwise loops: pairs of row i in [pairOffset_[i], pairOffset_[i + 1]).
+  std::vector<std::size_t> pairOffset_;
+  std::vector<std::uint32_t> pairPartner_;  // body-local index of the later particle
+  std::vector<double> pairLength_, pairWeight_, pairExtension_;  // |xi|, w beta, e
+  std::vector<double> pairForce_;  // force sums, 3 per particle
   std::vector<double> coefA_, coefB_;
 };
 
