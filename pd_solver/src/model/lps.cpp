@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstring>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -257,8 +258,10 @@ class Lps final : public PdModel {
 #else
     const bool oneThread = true;
 #endif
+    // Asked every force evaluation (a restore may bring broken flags): memchr
+    // scans the flags at memory speed, std::find one byte at a time.
     const auto& broken = body.bonds.broken;
-    return oneThread && std::find(broken.begin(), broken.end(), std::uint8_t{1}) == broken.end();
+    return oneThread && (broken.empty() || std::memchr(broken.data(), 1, broken.size()) == nullptr);
   }
 
   // Each bond i -> j with j after i, in row order.
