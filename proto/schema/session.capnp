@@ -81,7 +81,7 @@ struct Advance {
 struct Advanced {
   time @0 :Float64;          # simulated time after the request
   step @1 :UInt64;           # total steps taken
-  computeSeconds @2 :Float64; # wall time spent inside the solver's advance
+  computeSeconds @2 :Float64; # wall time spent inside the solver's advance and energies
   criticalDt @3 :Float64;
   energies @4 :List(Data.NamedValue);
   outputs @5 :Data.CouplingData;

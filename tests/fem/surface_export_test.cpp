@@ -79,6 +79,51 @@ TEST(FemSurfaceExport, SolverExportsAtSetup) {
   EXPECT_EQ(out.getQuadratures()[0].getWeights().size(), 4u * 60u);
 }
 
+std::string exportScene(const std::string& quadrature) {
+  return R"(solvers:
+  - name: beam
+    kind: fem
+    params:
+      mesh: {box: {min: [0, 0, 0], max: [0.8, 12, 0.8], divisions: [2, 30, 2]}}
+      material: {E: 1.0e8, nu: 0.0, density: 1309}
+      boundary: [{set: ymin}]
+      integrator: {type: newmark}
+      coupling: {surfaces: [zmax], quadrature: )" + quadrature + "}\n";
+}
+
+TEST(FemSurfaceExport, SetupOnlyQuadratureGoesWithTheSetupReplyAlone) {
+  capnp::MallocMessageBuilder inMsg, setupMsg, advanceMsg;
+  auto in = inMsg.initRoot<proto::CouplingData>();
+  auto atSetup = setupMsg.initRoot<proto::CouplingData>();
+  FemSolver solver;
+  solver.setup({"s.yaml", exportScene("setup"), "beam", "", in.asReader()}, atSetup);
+  ASSERT_EQ(atSetup.getQuadratures().size(), 1u);
+  EXPECT_EQ(atSetup.getQuadratures()[0].getWeights().size(), 4u * 60u);
+  wire::AdvanceRequest request;
+  request.steps = 1;
+  request.dt = 1e-4;
+  request.inputs = in.asReader();
+  auto advanced = advanceMsg.initRoot<proto::CouplingData>();
+  solver.advance(request, advanced);
+  ASSERT_EQ(advanced.getMeshes().size(), 1u);  // the moving surface still goes every exchange
+  EXPECT_EQ(advanced.getMeshes()[0].getPositions().size(), atSetup.getMeshes()[0].getPositions().size());
+  EXPECT_EQ(advanced.getQuadratures().size(), 0u);
+}
+
+TEST(FemSurfaceExport, UnknownQuadratureChoiceIsRefusedNamingTheKey) {
+  capnp::MallocMessageBuilder inMsg, outMsg;
+  auto in = inMsg.initRoot<proto::CouplingData>();
+  auto out = outMsg.initRoot<proto::CouplingData>();
+  FemSolver solver;
+  try {
+    solver.setup({"s.yaml", exportScene("always"), "beam", "", in.asReader()}, out);
+    FAIL() << "quadrature: always was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("coupling.quadrature must be true, false or setup"), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace cosim::fem
 

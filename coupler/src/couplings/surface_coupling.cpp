@@ -139,7 +139,7 @@ class SurfaceCoupling final : public Coupling {
     const auto qv = findQuadrature(fem->second);
     if (!qv)
       throw std::runtime_error("coupling '" + name() + "': wall_kinematics smoothed needs the surface quadrature of '" +
-                               fem_ + "' (params coupling.quadrature: true)");
+                               fem_ + "' at setup (params coupling.quadrature: setup or true)");
     try {
       smoothing_.emplace(*map_, meshView(mesh), *qv);
     } catch (const std::invalid_argument& e) {

@@ -18,7 +18,8 @@ void SurfaceForceMap::map(const ContactsView& c, const SurfaceMeshView& mesh, co
   const bool smoothed = !kernel_.isDirac();
   if (smoothed && !quadrature)
     throw std::invalid_argument("the CG-enriched force map (kernel '" + kernel_.name() +
-                                "') needs the surface quadrature points (FEM params coupling.quadrature: true)");
+                                "') needs the surface quadrature points with every exchange (FEM params coupling.quadrature: true; "
+                                "'setup' sends them once, which only wall_kinematics: smoothed can use)");
   if (smoothed && n > 0) binQuadrature(*quadrature);
   for (std::size_t k = 0; k < n; ++k) {
     if (smoothed) addSmoothedForm(k, c, *quadrature);

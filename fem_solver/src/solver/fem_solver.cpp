@@ -350,7 +350,14 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
           cp.fail(s, e.what());
         }
       }
-      surfaceQuadrature_ = cp.flag("quadrature", false);
+      // The quadrature of the CG-enriched force map: every exchange (true), or
+      // only with the setup outputs (setup: the smoothed wall reads it once).
+      const std::string quadrature = cp.text("quadrature", "false");
+      if (quadrature != "true" && quadrature != "false" && quadrature != "setup")
+        cp.fail(cp.node(), cp.path() + ".quadrature must be true, false or setup, got '" + quadrature + "'");
+      surfaceQuadrature_ = quadrature == "true" ? QuadratureExport::EveryExchange
+                           : quadrature == "setup" ? QuadratureExport::SetupOnly
+                                                   : QuadratureExport::None;
       cp.finish();
     }
     if (p.has("output")) {
@@ -378,7 +385,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     if (external_) pointF_ = pointDeformationGradients();
     if (integrator_) integrator_->initialise(state_);
     if (snapshots_) snapshots_->write(*model_, state_);
-    fillCouplingOutputs(outputs);
+    fillCouplingOutputs(outputs, true);
   } catch (const InputError& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
   } catch (const SolveError& e) {
@@ -444,7 +451,7 @@ void FemSolver::applyCouplingForces(proto::CouplingData::Reader inputs) {
                              });
 }
 
-void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const {
+void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs, bool atSetup) const {
   if (!zones_.empty()) {
     auto arrays = outputs.initArrays(static_cast<unsigned>(zones_.size() * VolumeZone::kArrays));
     for (unsigned i = 0; i < zones_.size(); ++i)
@@ -453,7 +460,8 @@ void FemSolver::fillCouplingOutputs(proto::CouplingData::Builder outputs) const 
   if (surfaces_.empty()) return;
   auto meshes = outputs.initMeshes(static_cast<unsigned>(surfaces_.size()));
   for (unsigned i = 0; i < surfaces_.size(); ++i) surfaces_[i].fillMesh(meshes[i], model_->mesh(), state_.u, state_.v);
-  if (!surfaceQuadrature_) return;
+  if (surfaceQuadrature_ == QuadratureExport::None || (surfaceQuadrature_ == QuadratureExport::SetupOnly && !atSetup))
+    return;
   auto quads = outputs.initQuadratures(static_cast<unsigned>(surfaces_.size()));
   for (unsigned i = 0; i < surfaces_.size(); ++i) surfaces_[i].fillQuadrature(quads[i], model_->mesh(), state_.u);
 }
@@ -501,7 +509,7 @@ void FemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   } catch (const SolveError& e) {
     throw SolverError(Code::SOLVER_FAILURE, e.what());
   }
-  fillCouplingOutputs(outputs);
+  fillCouplingOutputs(outputs, false);
   if (external_) fillUnitCellJobs(outputs, request.dt * request.steps);
 }
 

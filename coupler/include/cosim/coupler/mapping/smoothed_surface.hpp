@@ -45,6 +45,8 @@ class SmoothedSurface {
   std::vector<double> reference_;           // X_v, 3 per vertex
   VertexNodeWeights g_;                     // G_i(X_v), one row per vertex
   std::vector<std::uint32_t> nodeVertex_;   // the vertex that sits on each node
+  std::vector<std::uint32_t> source_;       // per entry of g_: the vertex of its node
+  mutable std::vector<double> displacement_;  // scratch: x_v - X_v of the current export
 };
 
 }  // namespace cosim::coupler

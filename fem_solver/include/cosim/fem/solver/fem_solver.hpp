@@ -43,7 +43,8 @@ class FemSolver final : public wire::Solver {
 
  private:
   void applyCouplingForces(proto::CouplingData::Reader inputs);
-  void fillCouplingOutputs(proto::CouplingData::Builder outputs) const;
+  /// Coupling exports; atSetup: the setup reply (the only one a `quadrature: setup` export goes with).
+  void fillCouplingOutputs(proto::CouplingData::Builder outputs, bool atSetup) const;
   /// `periodic:` list: node pairs of opposite faces tied with an optional jump.
   void readPeriodic(ParamMap& p);
   /// GMH: stresses of unit-cell results into the external material.
@@ -63,7 +64,8 @@ class FemSolver final : public wire::Solver {
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::vector<SurfaceExport> surfaces_;
   std::vector<VolumeZone> zones_;
-  bool surfaceQuadrature_ = false;
+  enum class QuadratureExport { None, SetupOnly, EveryExchange };
+  QuadratureExport surfaceQuadrature_ = QuadratureExport::None;
   ExternalStressMaterial* external_ = nullptr;  // owned by the model
   std::vector<double> pointF_;                  // F at the last exchange (GMH)
   // Initial velocity v = v0 + L (X - origin), e.g. a homogeneous simple shear
