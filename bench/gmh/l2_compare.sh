@@ -6,6 +6,7 @@
 # stress) and the RMS difference relative to the peak (l2_compare), then the
 # RMS against a direct test fed GMH's corotational increments.
 # Usage: bench/gmh/l2_compare.sh [spheres (300)] [coarse steps (150)] [max RMS / peak, e.g. 0.02 (none)]
+# Environment: L2_SEED (1) seeds the cell's packing, L2_WORK keeps the runs in a given folder.
 # With a max RMS the script fails when either test exceeds it, or when the
 # direct test fed the corotational increments differs by more than a tenth of it.
 set -euo pipefail
@@ -17,7 +18,7 @@ max=${3:-}
 work=${L2_WORK:-$(mktemp -d /tmp/gmh-l2.XXXXXX)}
 mkdir -p "$work"
 t0=$(date +%s.%N)
-"$bin/dem_prepare_cell" --out "$work/cell" --count "$count" --seed 1 > "$work/prepare.log"
+"$bin/dem_prepare_cell" --out "$work/cell" --count "$count" --seed "${L2_SEED:-1}" > "$work/prepare.log"
 head -1 "$work/prepare.log"
 status=0
 for test in compression shear; do

@@ -57,28 +57,6 @@ TEST(FemSurfaceExport, TrianglesWeightsAndQuadrature) {
   for (unsigned k = 2; k < meshes[0].getVelocities().size(); k += 3) EXPECT_DOUBLE_EQ(meshes[0].getVelocities()[k], 2.0);
 }
 
-TEST(FemSurfaceExport, SolverExportsAtSetup) {
-  const std::string yaml = R"(solvers:
-  - name: beam
-    kind: fem
-    params:
-      mesh: {box: {min: [0, 0, 0], max: [0.8, 12, 0.8], divisions: [2, 30, 2]}}
-      material: {E: 1.0e8, nu: 0.0, density: 1309}
-      boundary: [{set: ymin}]
-      integrator: {type: newmark}
-      coupling: {surfaces: [zmax], quadrature: true}
-)";
-  capnp::MallocMessageBuilder inMsg, outMsg;
-  auto in = inMsg.initRoot<proto::CouplingData>();
-  auto out = outMsg.initRoot<proto::CouplingData>();
-  FemSolver solver;
-  solver.setup({"s.yaml", yaml, "beam", "", in.asReader()}, out);
-  ASSERT_EQ(out.getMeshes().size(), 1u);
-  EXPECT_EQ(std::string(out.getMeshes()[0].getSurface().cStr()), "zmax");
-  EXPECT_EQ(out.getMeshes()[0].getTriangles().size(), 3u * 4u * 60u);
-  EXPECT_EQ(out.getQuadratures()[0].getWeights().size(), 4u * 60u);
-}
-
 std::string exportScene(const std::string& quadrature) {
   return R"(solvers:
   - name: beam
@@ -89,6 +67,19 @@ std::string exportScene(const std::string& quadrature) {
       boundary: [{set: ymin}]
       integrator: {type: newmark}
       coupling: {surfaces: [zmax], quadrature: )" + quadrature + "}\n";
+}
+
+TEST(FemSurfaceExport, SolverExportsAtSetup) {
+  const std::string yaml = exportScene("true");
+  capnp::MallocMessageBuilder inMsg, outMsg;
+  auto in = inMsg.initRoot<proto::CouplingData>();
+  auto out = outMsg.initRoot<proto::CouplingData>();
+  FemSolver solver;
+  solver.setup({"s.yaml", yaml, "beam", "", in.asReader()}, out);
+  ASSERT_EQ(out.getMeshes().size(), 1u);
+  EXPECT_EQ(std::string(out.getMeshes()[0].getSurface().cStr()), "zmax");
+  EXPECT_EQ(out.getMeshes()[0].getTriangles().size(), 3u * 4u * 60u);
+  EXPECT_EQ(out.getQuadratures()[0].getWeights().size(), 4u * 60u);
 }
 
 TEST(FemSurfaceExport, SetupOnlyQuadratureGoesWithTheSetupReplyAlone) {
