@@ -137,6 +137,33 @@ TEST_F(DemUnitCell, IsotropicCompressionRaisesMeanStress) {
   EXPECT_LT(o.measures.porosity, before.porosity);
 }
 
+TEST_F(DemUnitCell, ServoTakesOverWhenTheCellLosesItsPressure) {
+  // Stretch the prepared cell by 3 % so every contact opens, as when a
+  // packing at the edge of jamming collapses at fixed volume.
+  DemSystem c = cloneCell(*cell_);
+  RelaxSettings stretch = relaxSettings();
+  stretch.maxSteps = 10;
+  runUnitCellJob(c, [] {
+    std::array<double, 9> d{};
+    d[0] = d[4] = d[8] = 0.03;
+    return d;
+  }(), stretch);
+  ASSERT_LT(measureCell(c).pressure, 0.01 * kPressure);
+  CellPreparation prep;
+  prep.pressure = kPressure;
+  // The relaxation hands back after one slice instead of spending the budget.
+  const long relaxed = relaxWhileLoaded(c, log_.dt, prep, 200000);
+  EXPECT_LE(relaxed, 5000);
+  // And the servo brings the unloaded cell back to the target.
+  prep.maxSteps = 400000;
+  const long steps = servoToPressure(c, log_.dt, prep);
+  const CellMeasures m = measureCell(c);
+  std::printf("stretched cell back to %.5g Pa in %ld steps (relaxation handed back after %ld)\n", m.pressure, steps,
+              relaxed);
+  EXPECT_NEAR(m.pressure, kPressure, 0.02 * kPressure);
+  EXPECT_LT(m.unbalancedForceIndex, 0.01);
+}
+
 TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   DemSolver s;
   setupWorker(s, workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 10, load_steps: 10, tolerance: 1.0e-6"));

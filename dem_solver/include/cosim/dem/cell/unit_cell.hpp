@@ -56,6 +56,12 @@ DemSystem prepareUnitCell(const CellPreparation& prep, PreparationLog* log = nul
 /// Returns the steps taken; throws after maxSteps.
 long servoToPressure(DemSystem& cell, double dt, const CellPreparation& prep);
 
+/// The servo's relaxation at fixed cell: runs until I_uf < prep's tolerance,
+/// the budget is spent, or a stress component leaves ten times prep's
+/// pressure tolerance (the packing lost its load; the servo takes over again).
+/// Returns the steps taken.
+long relaxWhileLoaded(DemSystem& cell, double dt, const CellPreparation& prep, long budget);
+
 /// A full copy (through the checkpoint format, so histories come along).
 DemSystem cloneCell(const DemSystem& cell);
 
