@@ -89,6 +89,10 @@ int main(int argc, char** argv) {
   try {
     const auto start = std::chrono::steady_clock::now();
     cosim::dem::PreparationLog log;
+    prep.progress = [&prep](long steps, double pressure, double unbalanced) {
+      std::fprintf(stderr, "dem_prepare_cell: servo step %ld, mean stress %.1f kPa of %.1f kPa, I_uf %.3g\n", steps,
+                   pressure / 1e3, prep.pressure / 1e3, unbalanced);
+    };
     cosim::dem::DemSystem cell = cosim::dem::prepareUnitCell(prep, &log);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("dt %.3e s, mass damping %.3e 1/s; compression %ld steps (%s: porosity %.4f, Z %.3f), "

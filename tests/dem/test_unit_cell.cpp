@@ -30,6 +30,10 @@ class DemUnitCell : public ::testing::Test {
     prep.count = 150;
     prep.seed = 3;
     prep.pressure = kPressure;
+    prep.progressEvery = 20000;
+    prep.progress = [](long steps, double pressure, double index) {
+      progress_.push_back({static_cast<double>(steps), pressure, index});
+    };
     cell_ = std::make_unique<DemSystem>(prepareUnitCell(prep, &log_));
     dir_ = fs::temp_directory_path() / ("cosim_unit_cell_test_" + std::to_string(::getpid()));
     fs::create_directories(dir_);
@@ -48,10 +52,12 @@ class DemUnitCell : public ::testing::Test {
   }
   static std::unique_ptr<DemSystem> cell_;
   static PreparationLog log_;
+  static std::vector<std::array<double, 3>> progress_;  // steps, mean stress, I_uf as the servo reported them
   static fs::path dir_;
 };
 std::unique_ptr<DemSystem> DemUnitCell::cell_;
 PreparationLog DemUnitCell::log_;
+std::vector<std::array<double, 3>> DemUnitCell::progress_;
 fs::path DemUnitCell::dir_;
 
 std::string workerScene(const std::string& file, const std::string& extra) {
@@ -105,6 +111,15 @@ TEST_F(DemUnitCell, PreparationReachesTargetPressureWithin2Percent) {
   EXPECT_TRUE(m.porosity > 0.30 && m.porosity < 0.42) << m.porosity;  // dense random packing
   // Friction is switched on at the end: the material carries mu = 0.5.
   EXPECT_EQ(cell_->materials.pair(0, 0).friction, 0.5);
+  // The servo reported its progress about every 20000 steps of the compression.
+  ASSERT_GE(progress_.size(), static_cast<std::size_t>(log_.compressionSteps / 20000 - 1)) << log_.compressionSteps;
+  ASSERT_GE(progress_.size(), 2u);
+  for (std::size_t k = 1; k < progress_.size(); ++k) {
+    if (progress_[k][0] > progress_[k - 1][0]) {
+      EXPECT_GE(progress_[k][0] - progress_[k - 1][0], 20000.0);
+    }
+  }
+  for (const auto& r : progress_) EXPECT_TRUE(std::isfinite(r[1]) && r[1] >= 0.0 && r[1] < 10.0 * kPressure) << r[1];
 }
 
 TEST_F(DemUnitCell, ZeroIncrementReturnsPreparedStress) {

@@ -141,8 +141,13 @@ long servoToPressure(DemSystem& s, double dt, const CellPreparation& prep) {
   // fraction keeps the correction slower than a stress wave crosses the cell.
   constexpr long kChunk = 10;
   constexpr double kFraction = 0.05;
-  long steps = 0;
+  long steps = 0, nextReport = prep.progressEvery;
   while (steps < prep.maxSteps) {
+    if (prep.progress && steps >= nextReport) {
+      const CellMeasures m = measureCell(s);
+      prep.progress(steps, m.pressure, m.unbalancedForceIndex);
+      while (nextReport <= steps) nextReport += prep.progressEvery;
+    }
     const auto err = stressErrors(s, prep.pressure);
     if (within(err, prep.pressureTolerance)) {
       s.cell.velocityGradient = {};
