@@ -179,6 +179,20 @@ TEST_F(DemUnitCell, ServoTakesOverWhenTheCellLosesItsPressure) {
   EXPECT_LT(m.unbalancedForceIndex, 0.01);
 }
 
+TEST(DemUnitCellPreparation, ProgressIntervalMustBePositive) {
+  // With a callback, a zero interval would report forever at one step count.
+  CellPreparation prep;
+  prep.count = 20;
+  prep.progressEvery = 0;
+  prep.progress = [](long, double, double) {};
+  try {
+    prepareUnitCell(prep);
+    FAIL() << "a zero progress interval was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("progress interval must be positive"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   DemSolver s;
   setupWorker(s, workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 10, load_steps: 10, tolerance: 1.0e-6"));

@@ -41,6 +41,7 @@ void checkPreparation(const CellPreparation& p) {
   require(p.massDampingDt >= 0.0 && p.massDampingDt < 1.0, "mass damping * dt must lie in [0, 1)");
   require(p.dtFactor > 0.0 && p.dtFactor <= 1.0, "dt factor must lie in (0, 1]");
   require(p.maxStrainPerStep > 0.0 && p.maxSteps > 0, "strain rate limit and step budget must be positive");
+  require(!p.progress || p.progressEvery > 0, "the progress interval must be positive");
 }
 
 /// Restitution of a linear dashpot with damping ratio zeta:
@@ -116,17 +117,39 @@ CellMeasures measureCell(const DemSystem& cell) {
   return m;
 }
 
+namespace {
+
+/// Calls prep.progress about every prep.progressEvery steps of one servo phase.
+class ProgressReport {
+ public:
+  explicit ProgressReport(const CellPreparation& prep) : prep_(prep), next_(prep.progressEvery) {}
+  void at(const DemSystem& s, long steps) {
+    if (!prep_.progress || steps < next_) return;
+    const CellMeasures m = measureCell(s);
+    prep_.progress(steps, m.pressure, m.unbalancedForceIndex);
+    while (next_ <= steps) next_ += prep_.progressEvery;
+  }
+
+ private:
+  const CellPreparation& prep_;
+  long next_;
+};
+
+}  // namespace
+
 // In slices: a packing at the edge of jamming can lose its pressure at fixed
 // volume (a 4096-sphere frictionless cell fell to 0.7 % of the target while
 // I_uf hovered at 0.013), and the relaxation then spent the whole budget on
 // an unloaded cell. The band is ten times the servo's tolerance, so ordinary
 // fluctuations while settling do not cut it short, and a relaxation that
 // converges takes exactly the steps one call would.
-long relaxWhileLoaded(DemSystem& s, double dt, const CellPreparation& prep, long budget) {
+long relaxWhileLoaded(DemSystem& s, double dt, const CellPreparation& prep, long budget,
+                      const std::function<void(long)>& afterSlice) {
   constexpr long kSlice = 5000;  // a multiple of relax's check interval, so its checks fall where one call's would
   long steps = 0;
   while (steps < budget) {
     steps += relax(s, dt, prep.unbalancedTolerance, std::min(kSlice, budget - steps));
+    if (afterSlice) afterSlice(steps);
     const double index = unbalancedForceIndex(s);
     if (index > 0.0 && index < prep.unbalancedTolerance) break;
     if (!within(stressErrors(s, prep.pressure), 10.0 * prep.pressureTolerance)) break;
@@ -141,17 +164,15 @@ long servoToPressure(DemSystem& s, double dt, const CellPreparation& prep) {
   // fraction keeps the correction slower than a stress wave crosses the cell.
   constexpr long kChunk = 10;
   constexpr double kFraction = 0.05;
-  long steps = 0, nextReport = prep.progressEvery;
+  long steps = 0;
+  ProgressReport report(prep);
   while (steps < prep.maxSteps) {
-    if (prep.progress && steps >= nextReport) {
-      const CellMeasures m = measureCell(s);
-      prep.progress(steps, m.pressure, m.unbalancedForceIndex);
-      while (nextReport <= steps) nextReport += prep.progressEvery;
-    }
+    report.at(s, steps);
     const auto err = stressErrors(s, prep.pressure);
     if (within(err, prep.pressureTolerance)) {
       s.cell.velocityGradient = {};
-      steps += relaxWhileLoaded(s, dt, prep, prep.maxSteps - steps);
+      // A long relaxation reports too.
+      steps += relaxWhileLoaded(s, dt, prep, prep.maxSteps - steps, [&](long relaxed) { report.at(s, steps + relaxed); });
       if (within(stressErrors(s, prep.pressure), prep.pressureTolerance) &&
           unbalancedForceIndex(s) < prep.unbalancedTolerance && coordinationNumber(s) > 0.0)
         return steps;

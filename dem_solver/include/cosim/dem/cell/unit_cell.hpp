@@ -39,8 +39,8 @@ struct CellPreparation {
   double maxStrainPerStep = 2e-5;           // servo rate limit per axis
   long maxSteps = 2000000;
   std::uint64_t seed = 1;
-  /// Called about every progressEvery steps of each servo phase with the
-  /// phase's steps so far, the mean stress p = -tr(sigma)/3 [Pa] and I_uf:
+  /// Called about every progressEvery steps of each servo phase (its
+  /// relaxations included) with the phase's steps so far, the mean stress p = -tr(sigma)/3 [Pa] and I_uf:
   /// a 4096-sphere cell takes minutes. Measures only; the packing is the same.
   std::function<void(long steps, double pressure, double unbalancedForceIndex)> progress;
   long progressEvery = 50000;
@@ -65,8 +65,10 @@ long servoToPressure(DemSystem& cell, double dt, const CellPreparation& prep);
 /// The servo's relaxation at fixed cell: runs until I_uf < prep's tolerance,
 /// the budget is spent, or a stress component leaves ten times prep's
 /// pressure tolerance (the packing lost its load; the servo takes over again).
-/// Returns the steps taken.
-long relaxWhileLoaded(DemSystem& cell, double dt, const CellPreparation& prep, long budget);
+/// afterSlice, if given, gets the steps taken so far after each slice of
+/// 5000. Returns the steps taken.
+long relaxWhileLoaded(DemSystem& cell, double dt, const CellPreparation& prep, long budget,
+                      const std::function<void(long)>& afterSlice = {});
 
 /// A full copy (through the checkpoint format, so histories come along).
 DemSystem cloneCell(const DemSystem& cell);
