@@ -9,7 +9,7 @@ $Cxx.namespace("cosim::proto");
 using Data = import "data.capnp";
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 0;
+const protocolMinor :UInt16 = 1;  # 1: Advance.wantCriticalDt
 
 struct Envelope {
   seq @0 :UInt64;          # sender's sequence number (requests and replies)
@@ -76,13 +76,15 @@ struct Advance {
                                    # interval, for linear interpolation in sub-steps
   wantEnergies @6 :Bool = true;    # false: the reply may leave its energies out (they
                                    # can cost a sweep over the model, e.g. PD's bonds)
+  wantCriticalDt @7 :Bool = true;  # false: the reply's criticalDt is 0, not computed (a
+                                   # Hertz-aware DEM step is a sweep over the particles)
 }
 
 struct Advanced {
   time @0 :Float64;          # simulated time after the request
   step @1 :UInt64;           # total steps taken
   computeSeconds @2 :Float64; # wall time spent inside the solver's advance and energies
-  criticalDt @3 :Float64;
+  criticalDt @3 :Float64;    # the solver's stable step now; 0: no limit, or not asked for
   energies @4 :List(Data.NamedValue);
   outputs @5 :Data.CouplingData;
 }

@@ -259,12 +259,14 @@ struct SolverHost::Impl {
     solver.advance(req, done.initOutputs());
     done.setTime(solver.time());
     done.setStep(solver.step());
-    done.setCriticalDt(solver.criticalDt());
+    // Only when asked: a velocity-dependent (Hertz) step is a sweep over the
+    // particles, and the coupler reads it on its series rows only.
+    if (a.getWantCriticalDt()) done.setCriticalDt(solver.criticalDt());
     if (a.getWantEnergies()) {
       const auto energies = solver.energies();
       fillEnergies(done.initEnergies(static_cast<unsigned>(energies.size())), energies);
     }
-    // Energies are the solver's work too (a sweep over its model), not the wire's.
+    // Energies and the critical step are the solver's work too (sweeps over its model), not the wire's.
     done.setComputeSeconds(monotonicSeconds() - start);
     data.send(m);
   }

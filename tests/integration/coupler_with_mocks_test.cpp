@@ -34,6 +34,7 @@ struct SceneOptions {
   std::string transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 30}";
   std::string outputExtra;  // more keys under output:, e.g. "checkpoint_interval: 50"
   std::string placement;    // the placement: map, when set
+  std::string record = "[left.digest, left.mismatches, right.digest, right.mismatches]";
 };
 
 class CouplerRun : public ::testing::Test {
@@ -60,7 +61,7 @@ class CouplerRun : public ::testing::Test {
       << "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n"
       << "  - {name: r2l, kind: direct-transfer, from: right, to: left, arrays: [state]}\n"
       << "output:\n  dir: " << (dir_ / "run").string() << "\n"
-      << "  record: [left.digest, left.mismatches, right.digest, right.mismatches]\n"
+      << "  record: " << o.record << "\n"
       << (o.outputExtra.empty() ? "" : "  " + o.outputExtra + "\n");
     return path.string();
   }
@@ -192,8 +193,9 @@ TEST_F(CouplerRun, ProtocolMismatchIsRefusedBeforeTimeZero) {
   const auto f = runCoupler(o);
   EXPECT_EQ(f.code, 3) << f.err;
   EXPECT_NE(f.err.find("solver 'right'"), std::string::npos) << f.err;
-  EXPECT_NE(f.err.find("speaks protocol 99.0"), std::string::npos) << f.err;
-  EXPECT_NE(f.err.find("the coupler speaks 1.0"), std::string::npos) << f.err;
+  const std::string minor = std::to_string(proto::PROTOCOL_MINOR);
+  EXPECT_NE(f.err.find("speaks protocol 99." + minor), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("the coupler speaks 1." + minor), std::string::npos) << f.err;
   EXPECT_EQ(report()["exchanges"], 0);
 }
 
@@ -247,6 +249,41 @@ TEST_F(CouplerRun, StepAboveTheCriticalStepIsRefusedUnlessForced) {
   EXPECT_NE(f.err.find("exceeds the critical time step 0.0001 s of solver 'left'"), std::string::npos) << f.err;
   f = runCoupler(o, {"--force"});
   EXPECT_EQ(f.code, 0) << f.err;
+}
+
+// Advanced.criticalDt is asked for on series rows only (a Hertz-aware DEM step
+// is a sweep over the particles), recorded there, and a step that has become
+// larger than it is reported once, on stderr and in the run report.
+TEST_F(CouplerRun, CriticalStepIsAskedOnSeriesRowsAndAShrinkingOneIsReported) {
+  SceneOptions o;
+  o.left = "{seed: 1, length: 64, expect_seed: 2, critical_dt: 2.0e-3, critical_dt_later: 5.0e-4, critical_dt_from: 35, "
+           "count_critical_dt: true}";
+  o.outputExtra = "series_every: 10";
+  o.record = "[left.critical_dt_calls]";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const std::string warning =
+      "solver 'left' reports a critical step of 0.0005 s at exchange 40 (t = 0.04 s), below the step dt = 0.001 s";
+  EXPECT_NE(f.err.find(warning), std::string::npos) << f.err;
+  EXPECT_EQ(f.err.find("solver 'left' reports a critical step", f.err.find(warning) + 1), std::string::npos)
+      << "reported more than once:\n" << f.err;
+  EXPECT_EQ(f.err.find("solver 'right' reports"), std::string::npos) << f.err;  // no limit: never reported
+  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+  const auto critical = h5.readArray("/series/left/critical_dt_s");
+  ASSERT_EQ(critical.size(), 11u);  // setup and exchanges 10, 20, ..., 100
+  for (std::size_t k = 0; k < critical.size(); ++k) EXPECT_EQ(critical[k], k < 4 ? 2.0e-3 : 5.0e-4) << "row " << k;
+  // Emitted before the host asks: row k has seen setup and rows 1 .. k-1 ask.
+  const auto calls = h5.readArray("/series/left/critical_dt_calls");
+  ASSERT_EQ(calls.size(), 11u);
+  for (std::size_t k = 0; k < calls.size(); ++k) EXPECT_EQ(calls[k], static_cast<double>(k)) << "row " << k;
+  const auto r = report();
+  ASSERT_EQ(r["warnings"].size(), 1u);
+  EXPECT_NE(r["warnings"][0].get<std::string>().find(warning), std::string::npos);
+  for (const auto& p : r["peers"])
+    if (p["name"] == "left") {
+      EXPECT_EQ(p["critical_dt_s"].get<double>(), 2.0e-3);
+      EXPECT_EQ(p["critical_dt_min_s"].get<double>(), 5.0e-4);
+    }
 }
 
 TEST_F(CouplerRun, AutoStepUsesTheSafetyFactor) {

@@ -4,8 +4,11 @@
 //
 // Its scene params: seed, length (doubles in the "state" array it emits),
 // expect_seed/expect_length (the peer pattern it checks what it receives
-// against), compute_seconds, critical_dt, and die_at / freeze_at / stall_at /
-// fail_at / nan_at (an exchange number).
+// against), compute_seconds, critical_dt (critical_dt_later from exchange
+// critical_dt_from on), and die_at / freeze_at / stall_at / fail_at / nan_at
+// (an exchange number). Besides "state" it emits "digest", "mismatches" and,
+// with count_critical_dt: true, "critical_dt_calls" (how often the host has
+// asked it for its critical step; not checkpointed).
 // Hello-time behaviour comes from the command line, before the scene is read:
 // --mock-protocol-major N, --mock-kind K, --mock-capabilities a,b,c.
 #include <yaml-cpp/yaml.h>
@@ -33,6 +36,9 @@ struct Script {
   std::size_t expectLength = 16;
   double computeSeconds = 0.0;
   double criticalDt = 0.0;
+  double criticalDtLater = 0.0;  // 0: critical_dt throughout
+  std::uint64_t criticalDtFrom = 0;
+  bool countCriticalDt = false;
   std::uint64_t dieAt = 0, freezeAt = 0, stallAt = 0, failAt = 0, nanAt = 0;
 };
 
@@ -105,7 +111,11 @@ class MockSolver final : public cosim::wire::Solver {
 
   double time() const override { return time_; }
   std::uint64_t step() const override { return step_; }
-  double criticalDt() const override { return script_.criticalDt; }
+  double criticalDt() const override {
+    ++criticalDtCalls_;
+    return script_.criticalDtLater > 0.0 && exchange_ >= script_.criticalDtFrom ? script_.criticalDtLater
+                                                                                 : script_.criticalDt;
+  }
   cosim::wire::NamedValues energies() const override { return {{"kinetic", energy_}}; }
   std::size_t outputWordsHint() const override { return script_.length + 256; }
 
@@ -122,6 +132,9 @@ class MockSolver final : public cosim::wire::Solver {
       script_.expectLength = static_cast<std::size_t>(m.integer("expect_length", static_cast<long>(script_.length), 0, big));
       script_.computeSeconds = m.number("compute_seconds", 0.0, cosim::config::Range::nonNegative());
       script_.criticalDt = m.number("critical_dt", 0.0, cosim::config::Range::nonNegative());
+      script_.criticalDtLater = m.number("critical_dt_later", 0.0, cosim::config::Range::nonNegative());
+      script_.criticalDtFrom = static_cast<std::uint64_t>(m.integer("critical_dt_from", 0, 0, big));
+      script_.countCriticalDt = m.boolean("count_critical_dt", false);
       script_.dieAt = static_cast<std::uint64_t>(m.integer("die_at", 0, 0, big));
       script_.freezeAt = static_cast<std::uint64_t>(m.integer("freeze_at", 0, 0, big));
       script_.stallAt = static_cast<std::uint64_t>(m.integer("stall_at", 0, 0, big));
@@ -154,10 +167,13 @@ class MockSolver final : public cosim::wire::Solver {
       }
     }
     energy_ = script_.nanAt != 0 && exchange_ == script_.nanAt ? std::nan("") : 0.5 * static_cast<double>(exchange_);
-    auto arrays = out.initArrays(3);
+    const double calls = static_cast<double>(criticalDtCalls_);
+    auto arrays = out.initArrays(script_.countCriticalDt ? 4 : 3);
     cosim::wire::addArray(arrays, 0, "state", 1, state);
     cosim::wire::addArray(arrays, 1, "digest", 2, digest);
     cosim::wire::addArray(arrays, 2, "mismatches", 1, std::span<const double>(&mismatches, 1));
+    if (script_.countCriticalDt)
+      cosim::wire::addArray(arrays, 3, "critical_dt_calls", 1, std::span<const double>(&calls, 1));
   }
 
   HelloOverrides hello_;
@@ -166,6 +182,7 @@ class MockSolver final : public cosim::wire::Solver {
   std::uint64_t step_ = 0;
   double time_ = 0.0;
   double energy_ = 0.0;
+  mutable std::uint64_t criticalDtCalls_ = 0;
 };
 
 std::vector<std::string> splitCommas(const std::string& s) {

@@ -29,13 +29,15 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
                           {"compute_s", p.computeS}, {"communication_s", p.communicationS},
                           {"messages_sent", p.messagesSent}, {"messages_received", p.messagesReceived},
                           {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
-                          {"critical_dt_s", p.criticalDt}, {"cpus", p.cpus}});
+                          {"critical_dt_s", p.criticalDt}, {"critical_dt_min_s", p.minCriticalDt},
+                          {"cpus", p.cpus}});
   j["final_energies_J"] = finalEnergies;
   j["coupling_overhead_share"] = couplingOverheadShare();
   j["errors"] = nlohmann::json::array();
   for (const auto& e : errors)
     j["errors"].push_back({{"name", e.name}, {"reference", e.reference}, {"unit", e.unit}, {"value", e.value}});
   j["figures"] = figures;
+  j["warnings"] = warnings;
   std::ofstream out(path);
   out << std::setw(2) << j << "\n";
 }
@@ -73,6 +75,7 @@ std::string RunReport::text() const {
   // Figures span many scales (time steps of 1e-7 s, forces of 1e4 N): six significant digits.
   for (const auto& [name, v] : figures)
     s << "  figure        " << name << " = " << std::defaultfloat << std::setprecision(6) << v << std::fixed << "\n";
+  for (const auto& w : warnings) s << "  warning       " << w << "\n";
   for (const auto& [name, e] : finalEnergies) s << "  energy        " << name << " = " << std::setprecision(6) << e << " J\n";
   s << "  output        " << runDir << "\n";
   return s.str();

@@ -126,6 +126,7 @@ class CouplerRun final : public ExchangeDriver {
         adv.setTime(time_);
         adv.setExchange(exchange_);
         adv.setWantEnergies(wantsEnergies());
+        adv.setWantCriticalDt(recordsThisExchange());
         inputs.build(adv.initInputs());
       }
       // The send is part of the round trip, not of the mapping: where the
@@ -138,7 +139,7 @@ class CouplerRun final : public ExchangeDriver {
     time_ = newTime;
     std::set<std::string> advanced;
     for (std::size_t i = 0; i < replies.size(); ++i) {
-      takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i]);
+      takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt);
       advanced.insert(pending[i].first);
     }
     runCouplings(advanced);
@@ -383,7 +384,7 @@ class CouplerRun final : public ExchangeDriver {
       p.name = s.name;
       p.kind = session_->info(s.name).kind;
       p.version = session_->info(s.name).version;
-      p.criticalDt = critical[s.name];
+      p.criticalDt = p.lastCriticalDt = p.minCriticalDt = critical[s.name];
       if (s.launch == SolverSpec::Launch::spawn) p.cpus = cpusOf(session_->info(s.name).pid);
       timings_[s.name] = p;
     }
@@ -392,11 +393,12 @@ class CouplerRun final : public ExchangeDriver {
     record();
   }
 
-  void takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt) {
+  void takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt, double dt) {
     auto adv = reply.message.envelope().getBody().getAdvanced();
     auto& t = timings_[name];
     t.computeS += adv.getComputeSeconds();
     t.communicationS += std::max(0.0, reply.receivedAt - sentAt - adv.getComputeSeconds());
+    if (recordsThisExchange()) noteCriticalStep(name, adv.getCriticalDt(), dt);
     for (auto e : adv.getEnergies())
       if (!std::isfinite(e.getValue()))
         throw wire::PeerFault(name, "solver '" + name + "' reported " + e.getName().cStr() + " = " +
@@ -411,6 +413,24 @@ class CouplerRun final : public ExchangeDriver {
     latest_.insert_or_assign(name, std::move(reply.message));
     if (fresh) keepViews(name);
     else outputs_[name] = outputsOf(latest_.at(name));
+  }
+
+  /// A solver's stable step can shrink during a run (a Hertz contact's with
+  /// the impact speed): each series row records it, and a step above it is
+  /// reported once per solver, on stderr and in the run report.
+  void noteCriticalStep(const std::string& name, double critical, double dt) {
+    auto& t = timings_[name];
+    t.lastCriticalDt = critical;
+    if (!(critical > 0.0)) return;
+    t.minCriticalDt = t.minCriticalDt > 0.0 ? std::min(t.minCriticalDt, critical) : critical;
+    if (dt <= critical || options_.force || !warnedCritical_.insert(name).second) return;
+    std::ostringstream m;
+    m.precision(6);
+    m << "solver '" << name << "' reports a critical step of " << critical << " s at exchange " << exchange_
+      << " (t = " << time_ << " s), below the step dt = " << dt
+      << " s it takes: the run may go unstable (lower dt, or use dt: auto)";
+    log::warn(m.str());
+    report_.warnings.push_back(m.str());
   }
 
   /// Energies can cost a sweep over a solver's model: ask for them only when
@@ -449,6 +469,7 @@ class CouplerRun final : public ExchangeDriver {
       for (auto e : energies) series_->append(name + "/energy/" + e.getName().cStr(), e.getValue());
       series_->append(name + "/compute_s", timings_[name].computeS);
       series_->append(name + "/communication_s", timings_[name].communicationS);
+      series_->append(name + "/critical_dt_s", timings_[name].lastCriticalDt);
     }
     for (const auto& r : scene_.output.record) {
       proto::NamedArray::Reader array;
@@ -534,6 +555,7 @@ class CouplerRun final : public ExchangeDriver {
   std::optional<wire::PeerSession> session_;
   ProcessGroup processes_;
   std::set<std::string> faulty_;
+  std::set<std::string> warnedCritical_;  // solvers whose step was reported above their critical step
   CheckpointStore checkpoints_;
   std::optional<CheckpointStore::Point> resumeFrom_;
   std::map<std::string, wire::InMessage> latest_;

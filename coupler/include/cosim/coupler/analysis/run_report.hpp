@@ -19,7 +19,9 @@ struct PeerTiming {
   std::uint64_t messagesReceived = 0;
   std::uint64_t bytesSent = 0;
   std::uint64_t bytesReceived = 0;
-  double criticalDt = 0.0;
+  double criticalDt = 0.0;      // at setup
+  double lastCriticalDt = 0.0;  // as last reported (series rows ask for it)
+  double minCriticalDt = 0.0;   // the smallest nonzero one reported during the run
   std::string cpus;  // the CPUs a started peer may use, "[0]"; empty for an attached one
 };
 
@@ -54,6 +56,7 @@ struct RunReport {
   std::map<std::string, double> finalEnergies;  // "solver.name" -> J
   std::vector<ErrorFigure> errors;              // the first one is the scene's error metric
   std::map<std::string, double> figures;        // a scene's own numbers (drift, peak energy ...)
+  std::vector<std::string> warnings;            // e.g. a step above a solver's critical step
 
   /// Communication of every peer plus the coupler's mapping, as a share of the exchange loop.
   double couplingOverheadShare() const;
