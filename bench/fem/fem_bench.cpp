@@ -6,11 +6,15 @@
 //                        under mesh refinement (the docs/fem.md table).
 // fem_bench frequency  : first bending frequency of the cantilever against
 //                        beam theory (inverse iteration on K phi = w^2 M phi).
+// fem_bench solvers [R]: factorisation and solve times of every linear solver
+//                        on Newmark systems K_0 + M / (beta dt^2) of slender
+//                        beams and a cube; best of R batches (default 3).
 #include <omp.h>
 
 #include <time.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -139,6 +143,64 @@ void benchFrequency() {
   }
 }
 
+/// Newmark's system matrix for the clamped 0.8 x 12 x 0.8 m beam (or a 1 m cube) on the given mesh.
+SparseSystem newmarkSystem(const std::array<int, 3>& cells, bool cube) {
+  const Vec3 hi = cube ? Vec3(1, 1, 1) : Vec3(0.8, 12.0, 0.8);
+  auto model = makeModel(makeBoxMesh({0, 0, 0}, hi, cells), "incompatible-modes", 1309.0);
+  for (Index n : model->mesh().nodeSet("ymin"))
+    for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
+  SparseSystem K, M;
+  K.build(model->mesh(), model->dofMap(), model->numFree());
+  M.build(model->mesh(), model->dofMap(), model->numFree());
+  std::vector<double> f;
+  ElementEnergy en;
+  model->assembleTangent(std::vector<double>(model->numDofs(), 0.0), K, f, en);
+  model->assembleMass(M);
+  K.matrix() += 1.0 / (0.25 * 6.43e-5 * 6.43e-5) * M.matrix();  // C1's step
+  return K;
+}
+
+void benchSolvers(int repeats) {
+  std::printf("linear solvers on Newmark systems (C1's dt); best of %d batches\n", repeats);
+  std::printf("%-10s %-14s %8s %10s %14s %14s %12s\n", "mesh", "", "dofs", "solver", "factorise [ms]", "solve [us]",
+              "residual");
+  struct Case {
+    const char* name;
+    std::array<int, 3> cells;
+    bool cube;
+  };
+  const Case cases[] = {{"beam", {2, 30, 2}, false}, {"beam", {4, 60, 4}, false}, {"cube", {10, 10, 10}, true}};
+  for (const auto& c : cases) {
+    const SparseSystem A = newmarkSystem(c.cells, c.cube);
+    Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.size(), -1.0, 1.0);
+    char mesh[32];
+    std::snprintf(mesh, sizeof mesh, "%dx%dx%d", c.cells[0], c.cells[1], c.cells[2]);
+    for (const auto& name : linearSolverNames()) {
+      if (name == "cg") continue;
+      std::unique_ptr<LinearSolver> solver;
+      try {
+        solver = makeLinearSolver(name);
+      } catch (const InputError&) {
+        continue;  // cholmod in a build without it
+      }
+      solver->factorize(A.matrix());  // analysis and choices once, as in a run
+      double factorise = 1e300, solve = 1e300;
+      Eigen::VectorXd x;
+      for (int r = 0; r < repeats; ++r) {
+        auto t0 = std::chrono::steady_clock::now();
+        solver->factorize(A.matrix());
+        factorise = std::min(factorise, seconds(t0));
+        const int solves = std::max(20, static_cast<int>(2e6 / A.matrix().nonZeros()));
+        t0 = std::chrono::steady_clock::now();
+        for (int k = 0; k < solves; ++k) x = solver->solve(b);
+        solve = std::min(solve, seconds(t0) / solves);
+      }
+      std::printf("%-10s %-14s %8d %10s %14.3f %14.1f %12.2e\n", c.name, mesh, A.size(), name.c_str(), 1e3 * factorise,
+                  1e6 * solve, (A.matrix() * x - b).norm() / b.norm());
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -147,8 +209,9 @@ int main(int argc, char** argv) {
   if (mode == "explicit" || mode == "all") benchExplicit(repeats);
   if (mode == "cantilever" || mode == "all") benchCantilever();
   if (mode == "frequency" || mode == "all") benchFrequency();
-  if (mode != "all" && mode != "explicit" && mode != "cantilever" && mode != "frequency") {
-    std::fprintf(stderr, "usage: fem_bench [explicit|cantilever|frequency|all] [repeats of each explicit batch, default 3]\n");
+  if (mode == "solvers" || mode == "all") benchSolvers(repeats);
+  if (mode != "all" && mode != "explicit" && mode != "cantilever" && mode != "frequency" && mode != "solvers") {
+    std::fprintf(stderr, "usage: fem_bench [explicit|cantilever|frequency|solvers|all] [repeats of each batch, default 3]\n");
     return 2;
   }
   return 0;

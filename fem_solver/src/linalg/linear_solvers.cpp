@@ -2,6 +2,8 @@
 // ordering and symbolic analysis are computed once and reused for every
 // Newton iteration and time step (the pattern never changes).
 //  * "ldlt": Eigen's SimplicialLDLT (AMD ordering), column by column.
+//  * "profile": envelope L D L^T in reverse Cuthill-McKee order
+//    (profile_ldlt.hpp): contiguous rows, faster solves on slender meshes.
 //  * "cholmod": CHOLMOD's supernodal Cholesky (Chen, Davis, Hager &
 //    Rajamanickam 2008): it gathers columns with the same structure into
 //    dense supernodes and factorises them with BLAS-3 kernels, which is
@@ -11,8 +13,10 @@
 //    names the dof of a zero pivot.
 //  * "direct": cholmod where the build found CHOLMOD and CHOLMOD's analysis
 //    finds supernodes worth it (flops per factor entry above its switch,
-//    i.e. large 3D meshes), ldlt otherwise: on small systems the BLAS calls
-//    cost more than they save (a 270-dof Newmark test ran 4 times slower).
+//    i.e. large 3D meshes), otherwise profile where its envelope holds at
+//    most 1.5 times the entries of ldlt's sparse factor, else ldlt: on small
+//    systems the BLAS calls cost more than they save (a 270-dof Newmark test
+//    ran 4 times slower).
 //  * "cg": conjugate gradients with an incomplete Cholesky preconditioner.
 //
 // GCC 12's flow-sensitive -Wnull-dereference fires inside Eigen's sparse
@@ -29,6 +33,7 @@
 #endif
 
 #include "cosim/fem/linalg/sparse_system.hpp"
+#include "profile_ldlt.hpp"
 
 namespace cosim::fem {
 namespace {
@@ -60,6 +65,8 @@ class LdltSolver final : public LinearSolver {
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override { return ldlt_.solve(b); }
   int singularDof() const override { return singular_; }
+  /// Entries of the last factor's L (strictly lower).
+  long factorEntries() const { return static_cast<long>(ldlt_.matrixL().nestedExpression().nonZeros()); }
 
  private:
   Eigen::SimplicialLDLT<SparseSystem::Matrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
@@ -67,11 +74,67 @@ class LdltSolver final : public LinearSolver {
   int singular_ = -1;
 };
 
+class ProfileSolver final : public LinearSolver {
+ public:
+  void factorize(const SparseSystem::Matrix& A) override {
+    if (!analysed_) {
+      profile_.analyse(A);
+      analysed_ = true;
+    }
+    singular_ = profile_.factorize(A, kSingularPivot);
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
+    Eigen::VectorXd x(b.size());
+    profile_.solve(b.data(), x.data());
+    return x;
+  }
+  int singularDof() const override { return singular_; }
+  std::size_t envelopeEntries() const { return profile_.envelopeSize(); }
+
+ private:
+  ProfileLdlt profile_;
+  bool analysed_ = false;
+  int singular_ = -1;
+};
+
+/// Systems without supernodes worth BLAS: the first factorisation measures
+/// ldlt's sparse factor against the reverse Cuthill-McKee envelope and keeps
+/// profile where the envelope has at most 1.5 times its entries (a contiguous
+/// entry costs less than a sparse one: the C1 beam, 810 free dofs, 1.02
+/// times, solves 1.3-1.5x faster), ldlt otherwise (compact 3D meshes).
+class SimplicialSolver final : public LinearSolver {
+ public:
+  void factorize(const SparseSystem::Matrix& A) override {
+    if (!chosen_) {
+      chosen_ = true;
+      ldlt_.emplace();
+      ldlt_->factorize(A);
+      ProfileSolver trial;
+      trial.factorize(A);
+      if (ldlt_->singularDof() >= 0 ||
+          static_cast<double>(trial.envelopeEntries()) > 1.5 * static_cast<double>(ldlt_->factorEntries()))
+        return;
+      ldlt_.reset();
+      profile_.emplace(std::move(trial));
+      return;
+    }
+    if (profile_) profile_->factorize(A);
+    else ldlt_->factorize(A);
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override { return profile_ ? profile_->solve(b) : ldlt_->solve(b); }
+  int singularDof() const override { return profile_ ? profile_->singularDof() : ldlt_->singularDof(); }
+
+ private:
+  bool chosen_ = false;
+  std::optional<LdltSolver> ldlt_;
+  std::optional<ProfileSolver> profile_;
+};
+
 #ifdef COSIM_HAVE_CHOLMOD
 class CholmodSolver final : public LinearSolver {
  public:
   /// automatic: ldlt where CHOLMOD's analysis would choose a simplicial factor.
-  explicit CholmodSolver(bool automatic) {
+  explicit CholmodSolver(bool automatic) : automatic_(automatic) {
     cholmod_start(&common_);
     common_.supernodal = automatic ? CHOLMOD_AUTO : CHOLMOD_SUPERNODAL;
     common_.print = 0;  // failures are reported by status, not on stderr
@@ -88,7 +151,7 @@ class CholmodSolver final : public LinearSolver {
     if (!factor_ && !simplicial_) {
       factor_ = cholmod_analyze(&a, &common_);
       if (!factor_) throw SolveError("CHOLMOD could not analyse the system (status " + std::to_string(common_.status) + ")");
-      simplicial_ = !factor_->is_super;
+      simplicial_ = !factor_->is_super || (automatic_ && slender(A));
       if (simplicial_) cholmod_free_factor(&factor_, &common_);
     }
     supernodal_ = false;
@@ -98,11 +161,11 @@ class CholmodSolver final : public LinearSolver {
       supernodal_ = factor_->minor == factor_->n && pivotsNonzero();
       if (supernodal_) return;
     }
-    if (!ldlt_) ldlt_.emplace();
-    ldlt_->factorize(A);
+    if (!fallback_) fallback_.emplace();
+    fallback_->factorize(A);
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
-    if (!supernodal_) return ldlt_->solve(b);
+    if (!supernodal_) return fallback_->solve(b);
     cholmod_dense rhs{};
     rhs.nrow = rhs.d = rhs.nzmax = static_cast<std::size_t>(b.size());
     rhs.ncol = 1;
@@ -115,7 +178,7 @@ class CholmodSolver final : public LinearSolver {
     cholmod_free_dense(&x, &common_);
     return out;
   }
-  int singularDof() const override { return supernodal_ ? -1 : ldlt_->singularDof(); }
+  int singularDof() const override { return supernodal_ ? -1 : fallback_->singularDof(); }
 
  private:
   /// A as CHOLMOD sees it (no copy; CHOLMOD only reads it). The pattern
@@ -155,11 +218,23 @@ class CholmodSolver final : public LinearSolver {
     }
     return lo > kSingularPivot * hi;
   }
+  /// A system whose reverse Cuthill-McKee envelope holds at most 1.5 times
+  /// the entries of CHOLMOD's supernodal factor (a slender mesh): there the
+  /// envelope factor's contiguous rows beat the supernodes' BLAS calls, on a
+  /// 4500-dof beam 9 against 265 ms to factorise and 261 against 428 us to
+  /// solve (`fem_bench solvers`); compact 3D meshes keep CHOLMOD.
+  bool slender(const SparseSystem::Matrix& A) const {
+    ProfileLdlt envelope;
+    envelope.analyse(A);
+    return static_cast<double>(envelope.envelopeSize()) <= 1.5 * common_.lnz;
+  }
+
+  bool automatic_;
   cholmod_common common_{};
   cholmod_factor* factor_ = nullptr;
-  bool simplicial_ = false;  // CHOLMOD's analysis chose no supernodes: ldlt throughout
+  bool simplicial_ = false;  // no supernodes (CHOLMOD's choice, or a slender system): the fallback throughout
   bool supernodal_ = false;  // the current factorisation is CHOLMOD's (else ldlt's)
-  std::optional<LdltSolver> ldlt_;  // small or not positive definite systems
+  std::optional<SimplicialSolver> fallback_;  // small or not positive definite systems
 };
 #endif
 
@@ -191,7 +266,7 @@ class ConjugateGradientSolver final : public LinearSolver {
 }  // namespace
 
 const std::vector<std::string>& linearSolverNames() {
-  static const std::vector<std::string> names = {"direct", "cholmod", "ldlt", "cg"};
+  static const std::vector<std::string> names = {"direct", "cholmod", "ldlt", "profile", "cg"};
   return names;
 }
 
@@ -199,13 +274,14 @@ std::unique_ptr<LinearSolver> makeLinearSolver(const std::string& name, double t
 #ifdef COSIM_HAVE_CHOLMOD
   if (name == "direct" || name == "cholmod") return std::make_unique<CholmodSolver>(name == "direct");
 #else
-  if (name == "direct") return std::make_unique<LdltSolver>();
+  if (name == "direct") return std::make_unique<SimplicialSolver>();
   if (name == "cholmod")
     throw InputError("linear solver 'cholmod': this build has no CHOLMOD (install libsuitesparse-dev and reconfigure)");
 #endif
   if (name == "ldlt") return std::make_unique<LdltSolver>();
+  if (name == "profile") return std::make_unique<ProfileSolver>();
   if (name == "cg") return std::make_unique<ConjugateGradientSolver>(tolerance);
-  throw InputError("unknown linear solver '" + name + "' (known: direct, cholmod, ldlt, cg)");
+  throw InputError("unknown linear solver '" + name + "' (known: direct, cholmod, ldlt, profile, cg)");
 }
 
 }  // namespace cosim::fem

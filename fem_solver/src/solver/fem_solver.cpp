@@ -256,7 +256,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     if (newton.tangentReuse < 0) in.fail(in.get("tangent_reuse"), in.path() + ".tangent_reuse must be >= 0");
     if (const auto& names = linearSolverNames();
         std::find(names.begin(), names.end(), newton.linearSolver) == names.end())
-      in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct, cholmod, ldlt or cg");
+      in.fail(in.get("linear_solver"), in.path() + ".linear_solver must be direct, cholmod, ldlt, profile or cg");
     if (integratorType_ == "newmark") {
       NewmarkOptions o;
       o.gamma = in.number("gamma", o.gamma);

@@ -135,11 +135,18 @@ class Newmark final : public Integrator {
     NewtonOptions newton = options_.newton;
     if (options_.linear) newton.tangentReuse = std::max(newton.tangentReuse, 2);  // K_0 never changes
     factorisedDt_ = dt;
-    report_ = detail::newtonLoop(model_, newton, A_, *solver_, linearise, update,
-                                 "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")",
-                                 &factorised_);
-    updateKinematics();
-    model_.checkFinite(state.u, "displacement");
+    if (linearShortcut()) {
+      report_ = oneSolve(linearise, update);
+      updateKinematics();
+      model_.checkFinite(state.u, "displacement");
+      equilibriumInternalForce(state, fext, Ma, fint);
+    } else {
+      report_ = detail::newtonLoop(model_, newton, A_, *solver_, linearise, update,
+                                   "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")",
+                                   &factorised_);
+      updateKinematics();
+      model_.checkFinite(state.u, "displacement");
+    }
     // Applied forces: external on free dofs, reactions on prescribed dofs.
     std::vector<double> fApplied = fext, res(n);
     for (std::size_t d = 0; d < map.size(); ++d) {
@@ -166,6 +173,42 @@ class Newmark final : public Integrator {
   }
 
  private:
+  /// Linear mode with A = K_0 + c0 M factorised for this dt, no follower load
+  /// and no periodic tie: the residual is linear in a, so the one solve from
+  /// the predictor is the Newton solution, and Newton's converged check (a
+  /// second K_0 u and M a per step) can be left out.
+  bool linearShortcut() const {
+    return options_.linear && factorised_ && !model_.hasFollowerLoads() && model_.slaves().empty();
+  }
+
+  NewtonReport oneSolve(const detail::Linearise& linearise, const std::function<double(const Eigen::VectorXd&)>& update) {
+    Eigen::VectorXd R;
+    double scale = 0.0;
+    linearise(R, scale, false);
+    NewtonReport report;
+    report.iterations = 1;
+    report.residuals.push_back(R.norm() / (scale + 1e-300));
+    update(solver_->solve(-R));
+    return report;
+  }
+
+  /// f_int(u_{n+1}) after the shortcut's solve, without a second K_0 u:
+  /// on the free dofs the step solved M a + K_0 u = f_ext (Cheng Eq. 5 at
+  /// t_{n+1}), so f_int = f_ext - M a there (to the solve's round-off); the
+  /// prescribed dofs take their rows of K_0, for the reactions. Kept as the
+  /// last K_0 u, for the energies of this state.
+  void equilibriumInternalForce(const State& state, const std::vector<double>& fext, std::vector<double>& Ma,
+                                std::vector<double>& fint) const {
+    model_.massTimes(state.a, Ma, lumpedMass_);
+    const auto& map = model_.dofMap();
+    fint.resize(Ma.size());
+    const Eigen::Map<const Eigen::VectorXd> u(state.u.data(), static_cast<Eigen::Index>(state.u.size()));
+    for (std::size_t d = 0; d < map.size(); ++d)
+      fint[d] = map[d] >= 0 ? fext[d] - Ma[d] : kFull_.row(static_cast<Eigen::Index>(d)).dot(u);
+    lastU_ = state.u;
+    lastF_ = fint;
+  }
+
   /// K_0 on all dofs (for f_int and reactions) and on the free ones (for A).
   void buildLinearStiffness() {
     const std::size_t n = model_.numDofs();

@@ -28,9 +28,11 @@ class SparseSystem {
 };
 
 /// Linear solvers for the Newton systems, symbolic analysis once: "direct"
-/// (CHOLMOD's supernodal Cholesky where the build has it, else "ldlt"),
-/// "cholmod", "ldlt" (Eigen's SimplicialLDLT) and "cg" (conjugate gradients,
-/// incomplete Cholesky).
+/// (CHOLMOD's supernodal Cholesky where the build has it and the system is
+/// large enough, else "profile" or "ldlt", whichever factor is smaller),
+/// "cholmod", "ldlt" (Eigen's SimplicialLDLT), "profile" (envelope L D L^T in
+/// reverse Cuthill-McKee order) and "cg" (conjugate gradients, incomplete
+/// Cholesky).
 class LinearSolver {
  public:
   virtual ~LinearSolver() = default;
