@@ -19,15 +19,7 @@ SparseSystem beamSystem(bool clamped, double c0) {
   if (clamped)
     for (Index n : model->mesh().nodeSet("ymin"))
       for (int d = 0; d < 3; ++d) model->prescribe(n, d, Prescribed::Kind::displacement, 0.0);
-  SparseSystem K, M;
-  K.build(model->mesh(), model->dofMap(), model->numFree());
-  M.build(model->mesh(), model->dofMap(), model->numFree());
-  std::vector<double> f;
-  ElementEnergy en;
-  model->assembleTangent(std::vector<double>(model->numDofs(), 0.0), K, f, en);
-  model->assembleMass(M);
-  K.matrix() += c0 * M.matrix();
-  return K;
+  return model->shiftedStiffness(c0);
 }
 
 std::vector<std::string> availableSolvers() {

@@ -551,6 +551,18 @@ void Model::assembleMass(SparseSystem& M) const {
   }
 }
 
+SparseSystem Model::shiftedStiffness(double massFactor) const {
+  SparseSystem K, M;
+  K.build(mesh_, dofMap(), numFree());
+  M.build(mesh_, dofMap(), numFree());
+  std::vector<double> f;
+  ElementEnergy energy;
+  assembleTangent(std::vector<double>(numDofs(), 0.0), K, f, energy);
+  assembleMass(M);
+  K.matrix() += massFactor * M.matrix();
+  return K;
+}
+
 void Model::massTimes(const std::vector<double>& x, std::vector<double>& y, bool lumped) const {
   y.assign(numDofs(), 0.0);
   if (lumped) {

@@ -155,6 +155,9 @@ class Model {
                                ElementEnergy& energy) const;
   /// Consistent mass into a system with the same pattern.
   void assembleMass(SparseSystem& M) const;
+  /// K_0 + massFactor M on the free dofs, built here: the system matrix of
+  /// linear elastodynamics under Newmark (massFactor = 1 / (beta dt^2)).
+  SparseSystem shiftedStiffness(double massFactor) const;
   /// y = M x with the consistent mass (lumped when lumped = true), all dofs.
   void massTimes(const std::vector<double>& x, std::vector<double>& y, bool lumped) const;
   double kineticEnergy(const std::vector<double>& v, bool lumped) const;
