@@ -2,7 +2,7 @@
 # Sets everything up and runs the default scene through the coupler: scene C1
 # (Cheng 2022 Sec. 6.1), two particles sliding on an elastic cantilever with
 # the CG-enriched surface coupling at c = 10 d (configs/c1/cantilever_surface.yaml;
-# fem_solver + dem_solver, about 3 minutes on 2 cores), then plots it.
+# fem_solver + dem_solver, about 2 minutes on 2 cores), then plots it.
 # Another scene can be given as the first argument (no plot then).
 set -euo pipefail
 cd "$(dirname "$0")/.."
