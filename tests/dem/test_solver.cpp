@@ -289,3 +289,67 @@ TEST(DemSolver, PeriodicCellFromScene) {
 
 }  // namespace
 }  // namespace cosim::dem
+
+// params.drives (Cheng 2022 Table 4, loading (b)): the left end of a bonded
+// chain follows v(t) = a (cos(omega t) - 1) for one cycle and is then held.
+// It ends displaced by the pulse's integral, -a 2 pi / omega; the drive's work
+// is external work, and it equals the energy the undamped chain holds.
+namespace cosim::dem {
+namespace {
+
+TEST(DemSolver, CosinePulseDriveMovesItsZoneAndCountsItsWork) {
+  const double a = 0.05, omega = 1950.0, period = 2.0 * 3.14159265358979323846 / omega;
+  const std::string yaml = scene(R"(
+      contact: {normal: linear, tangential: none, damping: none}
+      materials:
+        - {name: grain, density: 2500, young: 1.0e8, poisson: 0.0, kn: 4.0e7}
+      particles:
+        - lattice: {origin: [0.2, 0.2, 0.2], spacing: 0.4, counts: [1, 40, 1], radius: 0.2, material: grain}
+      bonds: {stiffness: 4.0e7, neighbours: 1.01}
+      zones:
+        - {name: left, box: {min: [-1, -1, -1], max: [1, 0.4, 1]}}
+      drives:
+        - {zone: left, velocity: {kind: cosine-pulse, amplitude: [0, 0.05, 0], omega: 1950, cycles: 1}}
+)");
+  Harness h;
+  DemSolver s;
+  h.setup(s, yaml);
+  const Vec3 start = s.system().particles.x[0];
+  const double dt = 1.0e-5;  // t_c / 100 of one bond
+  const auto steps = static_cast<std::uint32_t>(std::ceil(period / dt)) + 1000;
+  h.advance(s, steps, dt);
+  const Particles& p = s.system().particles;
+  EXPECT_NEAR(p.x[0][1] - start[1], -a * period, 1e-6 * a * period);  // the pulse's integral
+  EXPECT_DOUBLE_EQ(p.x[0][0], start[0]);
+  EXPECT_EQ(p.v[0][1], 0.0);  // held after the pulse
+  EXPECT_NE(p.driven[1], 1);   // only the zone is driven
+  double stored = 0.0, work = 0.0, driveWork = -1.0;
+  for (const auto& [name, value] : s.energies()) {
+    if (name == "kinetic" || name == "elastic") stored += value;
+    if (name == "external_work") work = value;
+    if (name == "drive_work") driveWork = value;
+  }
+  EXPECT_EQ(driveWork, work);  // no other external force here
+  std::printf("[drive] work %.6e J, stored %.6e J, relative gap %.2e\n", work, stored, (work - stored) / work);
+  EXPECT_GT(work, 0.0);
+  EXPECT_NEAR(stored, work, 1e-3 * work);
+  // An unknown history kind, a key of another kind and a missing zone are named.
+  auto refused = [&](const std::string& from, const std::string& to, const std::string& message) {
+    std::string bad = yaml;
+    bad.replace(bad.find(from), from.size(), to);
+    Harness hb;
+    DemSolver b;
+    try {
+      hb.setup(b, bad, "drive.yaml");
+      ADD_FAILURE() << "accepted: " << to;
+    } catch (const wire::SolverError& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  };
+  refused("cosine-pulse", "sine-pulse", "drive.yaml:16: params.drives[0].velocity: unknown velocity history 'sine-pulse'");
+  refused("cycles: 1", "cycles: 1, value: [0, 0, 0]", "params.drives[0].velocity: unknown key 'value'");
+  refused("{zone: left,", "{zone: right,", "params.drives[0].zone: no zone named 'right' in params.zones");
+}
+
+}  // namespace
+}  // namespace cosim::dem

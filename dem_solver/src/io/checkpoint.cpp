@@ -10,7 +10,7 @@ namespace cosim::dem {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
-constexpr std::uint32_t kVersion = 6;
+constexpr std::uint32_t kVersion = 7;  // 7: driveWork
 
 class Writer {
  public:
@@ -108,7 +108,7 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
   w.pod(kVersion);
   for (const auto& name : s.contactLawNames()) w.str(name);
   w.str(s.integratorName());
-  w.pod(s.time); w.pod(s.step); w.pod(s.dissipated); w.pod(s.externalWork); w.pod(s.gravity);
+  w.pod(s.time); w.pod(s.step); w.pod(s.dissipated); w.pod(s.externalWork); w.pod(s.driveWork); w.pod(s.gravity);
   w.pod(static_cast<std::uint64_t>(s.materials.size()));
   for (const Material& m : s.materials.all()) {
     w.str(m.name);
@@ -161,7 +161,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   s.setContactLaw(normal, tangential, damping);
   s.setIntegrator(r.str());
   s.time = r.pod<double>(); s.step = r.pod<std::uint64_t>(); s.dissipated = r.pod<double>();
-  s.externalWork = r.pod<double>(); s.gravity = r.pod<Vec3>();
+  s.externalWork = r.pod<double>(); s.driveWork = r.pod<double>(); s.gravity = r.pod<Vec3>();
   s.materials = MaterialTable{};
   const auto nmat = r.pod<std::uint64_t>();
   for (std::uint64_t i = 0; i < nmat; ++i) {

@@ -80,6 +80,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   applyInputs(context.inputs);
   applyWeightProfile(context.inputs);
   selectZoneMembers();
+  selectDriveMembers();
   if (settings_.dt > 0.0) checkDt(settings_.dt, sceneFile_ + ": solver '" + instance_ + "': params.dt");
   if (settings_.snapshotEvery > 0) {
     std::filesystem::path file = settings_.snapshotFile.empty() ? instance_ + ".h5" : settings_.snapshotFile;
@@ -250,7 +251,12 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   hybrids_.beginInterval();
   zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
+    drive(request.dt);
+    const double powerBefore = drivePower();
     system_.advance(request.dt);
+    // The drive holds its particles on their path against the force f the
+    // contacts and bonds exert: its work is -f . v dt, f averaged over the step.
+    if (!driveMembers_.empty()) addDriveWork(-0.5 * (powerBefore + drivePower()) * request.dt);
     accumulateWallContacts();
     hybrids_.accumulate(system_.particles);
     for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
@@ -312,6 +318,53 @@ void DemSolver::selectZoneMembers() {
       if (inside) zoneMembers_[z].push_back(static_cast<std::uint32_t>(i));
     }
   }
+}
+
+void DemSolver::selectDriveMembers() {
+  driveMembers_.clear();
+  Particles& p = system_.particles;
+  for (const DriveSpec& d : settings_.drives) {
+    std::size_t z = 0;
+    while (settings_.zones[z].name != d.zone) ++z;  // the scene reader checked the name
+    if (zoneMembers_[z].empty())
+      throw SolverError(Code::BAD_INPUT, sceneFile_ + ": solver '" + instance_ + "': params.drives: zone '" + d.zone +
+                                             "' holds no particle");
+    for (std::uint32_t i : zoneMembers_[z]) {
+      p.driven[i] = 1;
+      p.omega[i] = {};  // the velocity comes with the first step (drive)
+    }
+    driveMembers_.push_back(zoneMembers_[z]);
+  }
+}
+
+// A driven particle moves by v dt in a step (DemSystem::advance); the
+// history's velocity at the step's midpoint makes that the midpoint rule,
+// second order in dt like the integrator. The drive also supplies the
+// change of its particles' own kinetic energy (weighted, as the energies
+// report it), so external work and stored energy balance at every step.
+void DemSolver::drive(double dt) {
+  Particles& p = system_.particles;
+  for (std::size_t k = 0; k < driveMembers_.size(); ++k) {
+    const Vec3 v = settings_.drives[k].history->velocity(system_.time + 0.5 * dt);
+    for (std::uint32_t i : driveMembers_[k]) {
+      addDriveWork(0.5 * p.weight[i] * p.mass[i] * (norm2(v) - norm2(p.v[i])));
+      p.v[i] = v;
+    }
+  }
+}
+
+void DemSolver::addDriveWork(double work) {
+  system_.driveWork += work;
+  system_.externalWork += work;
+}
+
+/// sum f . v over the driven particles (the power of the forces on them).
+double DemSolver::drivePower() const {
+  const Particles& p = system_.particles;
+  double power = 0.0;
+  for (const auto& members : driveMembers_)
+    for (std::uint32_t i : members) power += dot(p.f[i], p.v[i]);
+  return power;
 }
 
 void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
@@ -437,9 +490,14 @@ void DemSolver::fields(const std::vector<std::string>& requested, proto::Couplin
 wire::NamedValues DemSolver::energies() const {
   if (cells_) return {};  // unit cells run in pseudo time: their energies mean nothing physical
   const Energies e = dem::energies(system_);
-  return {{"kinetic", e.kinetic()},           {"translational", e.translational}, {"rotational", e.rotational},
-          {"elastic", e.elastic},             {"potential", e.potential},         {"dissipated", e.dissipated},
-          {"external_work", e.externalWork}};
+  wire::NamedValues values{{"kinetic", e.kinetic()},           {"translational", e.translational},
+                           {"rotational", e.rotational},       {"elastic", e.elastic},
+                           {"potential", e.potential},         {"dissipated", e.dissipated},
+                           {"external_work", e.externalWork}};
+  // The drives' share of the external work: what prescribed motion put in
+  // (a coupling's forces do work on particles too, Arlequin's penalty among them).
+  if (!settings_.drives.empty()) values.emplace_back("drive_work", system_.driveWork);
+  return values;
 }
 
 std::uint64_t DemSolver::checkpoint(const std::string& path) {

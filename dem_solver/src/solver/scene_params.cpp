@@ -228,6 +228,31 @@ void readZones(const YamlSection& params, RunSettings& settings) {
   }
 }
 
+void readDrives(const YamlSection& params, RunSettings& settings) {
+  const YAML::Node list = params.node("drives");
+  if (!list) return;
+  if (!list.IsSequence()) params.fail("drives", "expected a list of {zone, velocity}");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = params.path() + ".drives[" + std::to_string(i) + "]";
+    const YamlSection d(list[i], params.file(), path, {"zone", "velocity"});
+    DriveSpec spec;
+    spec.zone = d.text("zone");
+    if (std::none_of(settings.zones.begin(), settings.zones.end(),
+                     [&spec](const ExportZone& z) { return z.name == spec.zone; }))
+      d.fail("zone", "no zone named '" + spec.zone + "' in params.zones");
+    for (const auto& other : settings.drives)
+      if (other.zone == spec.zone) d.fail("zone", "zone '" + spec.zone + "' is driven twice");
+    const YAML::Node v = d.node("velocity");
+    if (!v || !v.IsMap() || !v["kind"])
+      d.fail("velocity", "expected a map with kind: " + VelocityHistoryRegistry::namesJoined());
+    const std::string kind = v["kind"].as<std::string>();
+    if (!VelocityHistoryRegistry::has(kind))
+      d.fail("velocity", "unknown velocity history '" + kind + "' (known: " + VelocityHistoryRegistry::namesJoined() + ")");
+    spec.history = VelocityHistoryRegistry::make(kind, d);
+    settings.drives.push_back(spec);
+  }
+}
+
 }  // namespace
 
 YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sceneFile, const std::string& instance) {
@@ -256,7 +281,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   const YamlSection params(node, sceneFile, "params",
                            {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance",
                             "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds",
-                            "zones", "hybrid"});
+                            "zones", "drives", "hybrid"});
   const YamlSection contact = params.child("contact", {"normal", "tangential", "damping"});
   const std::string normal = contact.text("normal", "hertz"), tangential = contact.text("tangential", "mindlin"),
                     damping = contact.text("damping", "restitution");
@@ -319,6 +344,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   if (settings.snapshotEvery < 0) snap.fail("every", "must be >= 0");
   settings.snapshotFile = snap.text("file", "");
   readZones(params, settings);
+  readDrives(params, settings);
   // hybrid: {material: name}: the material of hybrid PD particles (Hartmann Sec. 3);
   // they meet DEM spheres, walls and each other through the scene's contact law.
   const YamlSection hybrid = params.child("hybrid", {"material"});

@@ -43,7 +43,8 @@ class DemSystem {
   std::uint64_t step = 0;
   double massDamping = 0.0;     // c of the mass damping force -c m v (dynamic relaxation, Liu 2016 Sec. 2.3.2) [1/s]
   double dissipated = 0.0;      // energy lost in dashpots and sliding [J]
-  double externalWork = 0.0;    // work of moving walls and external forces [J]
+  double externalWork = 0.0;    // work of moving walls, external forces and drives [J]
+  double driveWork = 0.0;       // the drives' share of it (params.drives): energy put in by prescribed motion [J]
   // Pairs kept out of the contact law besides bonded ones: hybrid PD particles
   // of one family (Hartmann 2022 Sec. 3.1). Applied by initialize().
   std::vector<std::pair<std::uint32_t, std::uint32_t>> excludedPairs;

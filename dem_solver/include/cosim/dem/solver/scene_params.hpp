@@ -26,6 +26,9 @@
 //     zones:                             # particle states sent with every setup/advance reply
 //       - {name: all}                    # every particle
 //       - {name: overlap, box: {min: [x, y, z], max: [x, y, z]}}   # those starting inside the box
+//     drives:                            # a zone's particles moved with a velocity history, not integrated
+//       - {zone: left, velocity: {kind: cosine-pulse, amplitude: [0, 0.05, 0], omega: 1950, cycles: 1}}
+//       - {zone: lid, velocity: {kind: constant, value: [0, 0, -0.1]}}
 #include <yaml-cpp/yaml.h>
 
 #include <functional>
@@ -34,6 +37,7 @@
 #include <vector>
 
 #include "cosim/dem/dem_system.hpp"
+#include "cosim/dem/drive/velocity_history.hpp"
 
 namespace cosim::dem {
 
@@ -52,6 +56,7 @@ struct RunSettings {
   long snapshotEvery = 0;
   std::string snapshotFile;
   std::vector<ExportZone> zones;
+  std::vector<DriveSpec> drives;     // params.drives, by zone
   std::uint16_t hybridMaterial = 0;  // material of hybrid PD particles (params.hybrid.material)
 };
 
