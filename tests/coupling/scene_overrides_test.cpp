@@ -129,6 +129,9 @@ TEST(SceneOverrides, AMissingKeyOnTheWayNamesTheArgumentAndTheMissingPart) {
   const auto message = overrideError({"schedule.nokey.dt=1"});
   EXPECT_NE(message.find("--set 'schedule.nokey.dt=1'"), std::string::npos) << message;
   EXPECT_NE(message.find("schedule has no key 'nokey'"), std::string::npos) << message;
+  EXPECT_NE(message.find("to add it, give the whole map: --set 'schedule.nokey={dt: 1}'"), std::string::npos) << message;
+  const auto top = overrideError({"placement.processes=packed"});
+  EXPECT_NE(top.find("--set 'placement={processes: packed}'"), std::string::npos) << top;
 }
 
 TEST(SceneOverrides, AnUnknownItemNameListsTheNames) {

@@ -85,6 +85,19 @@ std::string whyMissing(const YAML::Node& parent, const std::vector<KeyStep>& ste
   return parentName + " is a single value, not a map, so " + missing + " does not exist";
 }
 
+/// A missing map key on the way is not created (a typo would pass silently
+/// into a new section): say how to add the whole map instead, e.g.
+/// "placement.processes=packed" -> --set 'placement={processes: packed}'.
+std::string asWholeMap(const YAML::Node& parent, const std::vector<KeyStep>& steps, std::size_t i,
+                       const std::string& value) {
+  if (!parent.IsMap()) return {};
+  for (std::size_t k = i; k < steps.size(); ++k)
+    if (steps[k].isIndex) return {};
+  std::string nested = value;
+  for (std::size_t k = steps.size() - 1; k > i; --k) nested = "{" + steps[k].key + ": " + nested + "}";
+  return "; to add it, give the whole map: --set '" + describePath(steps, i + 1) + "=" + nested + "'";
+}
+
 YAML::Node parseValue(const SceneOverride& o) {
   if (o.value.empty()) fail(o.argument, "no value after '=' (write '' for an empty string, ~ for null)");
   try {
@@ -100,7 +113,7 @@ void applyOne(YAML::Node& root, const SceneOverride& o) {
   YAML::Node node = root;
   for (std::size_t i = 0; i + 1 < steps.size(); ++i) {
     YAML::Node child = findChild(node, steps[i]);
-    if (!child.IsDefined()) fail(o.argument, whyMissing(node, steps, i));
+    if (!child.IsDefined()) fail(o.argument, whyMissing(node, steps, i) + asWholeMap(node, steps, i, o.value));
     node.reset(child);  // rebind, not assign: assignment would overwrite the tree
   }
   const auto& last = steps.back();
