@@ -11,6 +11,7 @@
 // acceleration differs from its master's by a constant per step chosen so
 // that u_s = u_m + jump(t_{n+1}) holds exactly.
 #include "cosim/fem/time/integrator.hpp"
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -249,7 +250,12 @@ class Newmark final : public Integrator {
   /// R = M a + f_int - f_ext on the free dofs; scale = |M a| + |f_int| + |f_ext| over all dofs.
   void residual(const State& state, const std::vector<double>& fint, const std::vector<double>& fext,
                 std::vector<double>& Ma, Eigen::VectorXd& R, double& scale) const {
-    model_.massTimes(state.a, Ma, lumpedMass_);
+    // The first iterate's a is zero wherever no motion is prescribed (all of
+    // it under fixed supports): M 0 = 0 without the element loop.
+    if (std::all_of(state.a.begin(), state.a.end(), [](double x) { return x == 0.0; }))
+      Ma.assign(state.a.size(), 0.0);
+    else
+      model_.massTimes(state.a, Ma, lumpedMass_);
     std::vector<double> r(Ma.size());
     double s1 = 0, s2 = 0, s3 = 0;
     for (std::size_t d = 0; d < r.size(); ++d) {
