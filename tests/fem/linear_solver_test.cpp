@@ -66,5 +66,27 @@ TEST(FemLinearSolvers, AFloatingBodyIsNamedSingular) {
   }
 }
 
+// Reverse Cuthill-McKee orders component by component: two disconnected
+// beams side by side, plus a dof coupled to nothing, solve like one system.
+TEST(FemLinearSolvers, ProfileHandlesDisconnectedComponents) {
+  const SparseSystem one = beamSystem(true, 1.0 / (0.25 * 6.43e-5 * 6.43e-5));
+  const int n = one.size();
+  std::vector<Eigen::Triplet<double>> t;
+  for (int c = 0; c < 2; ++c)
+    for (int k = 0; k < one.matrix().outerSize(); ++k)
+      for (SparseSystem::Matrix::InnerIterator it(one.matrix(), k); it; ++it)
+        t.emplace_back(static_cast<int>(it.row()) + c * n, static_cast<int>(it.col()) + c * n, (1.0 + c) * it.value());
+  t.emplace_back(2 * n, 2 * n, 3.0);
+  SparseSystem::Matrix A(2 * n + 1, 2 * n + 1);
+  A.setFromTriplets(t.begin(), t.end());
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), -1.0, 2.0);
+  auto profile = makeLinearSolver("profile");
+  profile->factorize(A);
+  ASSERT_EQ(profile->singularDof(), -1);
+  const Eigen::VectorXd x = profile->solve(b);
+  EXPECT_LT((A * x - b).norm() / b.norm(), 1e-14);
+  EXPECT_DOUBLE_EQ(x(2 * n), b(2 * n) / 3.0);
+}
+
 }  // namespace
 }  // namespace cosim::fem
