@@ -92,7 +92,6 @@ class ProfileSolver final : public LinearSolver {
     return x;
   }
   int singularDof() const override { return singular_; }
-  std::size_t envelopeEntries() const { return profile_.envelopeSize(); }
 
  private:
   ProfileLdlt profile_;
@@ -112,13 +111,15 @@ class SimplicialSolver final : public LinearSolver {
       chosen_ = true;
       ldlt_.emplace();
       ldlt_->factorize(A);
-      ProfileSolver trial;
-      trial.factorize(A);
-      if (ldlt_->singularDof() >= 0 ||
-          static_cast<double>(trial.envelopeEntries()) > 1.5 * static_cast<double>(ldlt_->factorEntries()))
-        return;
+      if (ldlt_->singularDof() >= 0) return;  // ldlt names the dof of a zero pivot
+      // The envelope's size comes from the ordering alone (O(nnz) memory):
+      // a compact 3D mesh's envelope can be far larger than its sparse factor.
+      ProfileLdlt envelope;
+      envelope.analyse(A);
+      if (static_cast<double>(envelope.envelopeSize()) > 1.5 * static_cast<double>(ldlt_->factorEntries())) return;
       ldlt_.reset();
-      profile_.emplace(std::move(trial));
+      profile_.emplace();
+      profile_->factorize(A);
       return;
     }
     if (profile_) profile_->factorize(A);
