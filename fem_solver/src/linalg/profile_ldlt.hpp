@@ -6,7 +6,7 @@
 // sums, since one running sum is bound by the add latency), the backward one
 // as axpys. On a slender mesh (a beam one element thick in two directions)
 // the envelope holds about as many entries as AMD's sparse factor, and the
-// solve is 1.3-1.5x faster than Eigen's SimplicialLDLT; on compact 3D meshes
+// solve is 2-3x faster than Eigen's SimplicialLDLT (`fem_bench solvers`); on compact 3D meshes
 // the envelope grows much faster than the sparse factor, so `direct` only
 // chooses it where the envelope is not larger (docs/fem.md).
 #include <cstddef>
