@@ -4,11 +4,12 @@
 // stored densely from its first nonzero column on, so both triangular solves
 // run over contiguous memory: the forward one as dot products (four partial
 // sums, since one running sum is bound by the add latency), the backward one
-// as axpys. On a slender mesh (a beam one element thick in two directions)
-// the envelope holds about as many entries as AMD's sparse factor, and the
-// solve is 2-3x faster than Eigen's SimplicialLDLT (`fem_bench solvers`); on compact 3D meshes
-// the envelope grows much faster than the sparse factor, so `direct` only
-// chooses it where the envelope is not larger (docs/fem.md).
+// as axpys. On a slender mesh (a beam a few elements thick) the envelope
+// holds about as many entries as AMD's sparse factor, and the solve is 2-3x
+// faster than Eigen's SimplicialLDLT (`fem_bench solvers`). On compact 3D
+// meshes the envelope grows much faster than the sparse factor, so `direct`
+// chooses it only where the envelope holds at most 1.5 times the sparse
+// factor's entries (docs/fem.md).
 #include <cstddef>
 #include <vector>
 
