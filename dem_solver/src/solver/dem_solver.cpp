@@ -251,12 +251,16 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   hybrids_.beginInterval();
   zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
-    drive(request.dt);
-    const double powerBefore = drivePower();
-    system_.advance(request.dt);
-    // The drive holds its particles on their path against the force f the
-    // contacts and bonds exert: its work is -f . v dt, f averaged over the step.
-    if (!driveMembers_.empty()) addDriveWork(-0.5 * (powerBefore + drivePower()) * request.dt);
+    if (driveZones_.empty()) {
+      system_.advance(request.dt);
+    } else {
+      drive(request.dt);
+      const double powerBefore = drivePower();
+      system_.advance(request.dt);
+      // The drive holds its particles on their path against the force f the
+      // contacts and bonds exert: its work is -f . v dt, f averaged over the step.
+      addDriveWork(-0.5 * (powerBefore + drivePower()) * request.dt);
+    }
     accumulateWallContacts();
     hybrids_.accumulate(system_.particles);
     for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
@@ -321,7 +325,7 @@ void DemSolver::selectZoneMembers() {
 }
 
 void DemSolver::selectDriveMembers() {
-  driveMembers_.clear();
+  driveZones_.clear();
   Particles& p = system_.particles;
   for (const DriveSpec& d : settings_.drives) {
     std::size_t z = 0;
@@ -333,7 +337,7 @@ void DemSolver::selectDriveMembers() {
       p.driven[i] = 1;
       p.omega[i] = {};  // the velocity comes with the first step (drive)
     }
-    driveMembers_.push_back(zoneMembers_[z]);
+    driveZones_.push_back(z);
   }
 }
 
@@ -344,9 +348,9 @@ void DemSolver::selectDriveMembers() {
 // report it), so external work and stored energy balance at every step.
 void DemSolver::drive(double dt) {
   Particles& p = system_.particles;
-  for (std::size_t k = 0; k < driveMembers_.size(); ++k) {
+  for (std::size_t k = 0; k < driveZones_.size(); ++k) {
     const Vec3 v = settings_.drives[k].history->velocity(system_.time + 0.5 * dt);
-    for (std::uint32_t i : driveMembers_[k]) {
+    for (std::uint32_t i : zoneMembers_[driveZones_[k]]) {
       addDriveWork(0.5 * p.weight[i] * p.mass[i] * (norm2(v) - norm2(p.v[i])));
       p.v[i] = v;
     }
@@ -362,8 +366,8 @@ void DemSolver::addDriveWork(double work) {
 double DemSolver::drivePower() const {
   const Particles& p = system_.particles;
   double power = 0.0;
-  for (const auto& members : driveMembers_)
-    for (std::uint32_t i : members) power += dot(p.f[i], p.v[i]);
+  for (std::size_t z : driveZones_)
+    for (std::uint32_t i : zoneMembers_[z]) power += dot(p.f[i], p.v[i]);
   return power;
 }
 

@@ -103,10 +103,17 @@ class ProfileSolver final : public LinearSolver {
 /// ldlt's sparse factor against the reverse Cuthill-McKee envelope and keeps
 /// profile where the envelope has at most 1.5 times its entries (a contiguous
 /// entry costs less than a sparse one: the C1 beam, 810 free dofs, 1.02
-/// times, solves 2-3x faster), ldlt otherwise (compact 3D meshes).
+/// times, solves 2-3x faster), ldlt otherwise (compact 3D meshes). Where
+/// the caller has already compared the envelope with a sparse factor
+/// (CHOLMOD's analysis), profile is taken without that trial factorisation.
 class SimplicialSolver final : public LinearSolver {
  public:
+  explicit SimplicialSolver(bool envelopeKnownSmall = false) : envelopeKnownSmall_(envelopeKnownSmall) {}
   void factorize(const SparseSystem::Matrix& A) override {
+    if (!chosen_ && envelopeKnownSmall_) {
+      chosen_ = true;
+      profile_.emplace();
+    }
     if (!chosen_) {
       chosen_ = true;
       ldlt_.emplace();
@@ -129,6 +136,7 @@ class SimplicialSolver final : public LinearSolver {
   int singularDof() const override { return profile_ ? profile_->singularDof() : ldlt_->singularDof(); }
 
  private:
+  bool envelopeKnownSmall_;
   bool chosen_ = false;
   std::optional<LdltSolver> ldlt_;
   std::optional<ProfileSolver> profile_;
@@ -172,7 +180,8 @@ class CholmodSolver final : public LinearSolver {
     if (!factor_ && !simplicial_) {
       factor_ = cholmod_analyze(&a, &common_);
       if (!factor_) throw SolveError("CHOLMOD could not analyse the system (status " + std::to_string(common_.status) + ")");
-      simplicial_ = !factor_->is_super || (automatic_ && slender(A));
+      slender_ = factor_->is_super && automatic_ && slender(A);
+      simplicial_ = !factor_->is_super || slender_;
       if (simplicial_) cholmod_free_factor(&factor_, &common_);
     }
     supernodal_ = false;
@@ -182,7 +191,7 @@ class CholmodSolver final : public LinearSolver {
       supernodal_ = factor_->minor == factor_->n && pivotsNonzero();
       if (supernodal_) return;
     }
-    if (!fallback_) fallback_.emplace();
+    if (!fallback_) fallback_.emplace(slender_);
     fallback_->factorize(A);
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
@@ -255,7 +264,8 @@ class CholmodSolver final : public LinearSolver {
   cholmod_factor* factor_ = nullptr;
   bool simplicial_ = false;  // no supernodes (CHOLMOD's choice, or a slender system): the fallback throughout
   bool supernodal_ = false;  // the current factorisation is CHOLMOD's (else ldlt's)
-  std::optional<SimplicialSolver> fallback_;  // small or not positive definite systems
+  bool slender_ = false;  // the envelope holds at most 1.5 times CHOLMOD's factor: the fallback uses it
+  std::optional<SimplicialSolver> fallback_;  // small, slender or not positive definite systems
 };
 #endif
 

@@ -136,18 +136,15 @@ class Newmark final : public Integrator {
     NewtonOptions newton = options_.newton;
     if (options_.linear) newton.tangentReuse = std::max(newton.tangentReuse, 2);  // K_0 never changes
     factorisedDt_ = dt;
-    if (linearShortcut()) {
-      report_ = oneSolve(linearise, update);
-      updateKinematics();
-      model_.checkFinite(state.u, "displacement");
-      equilibriumInternalForce(state, fext, Ma, fint);
-    } else {
-      report_ = detail::newtonLoop(model_, newton, A_, *solver_, linearise, update,
-                                   "newmark step " + std::to_string(state.step + 1) + " (t = " + std::to_string(t1) + ")",
-                                   &factorised_);
-      updateKinematics();
-      model_.checkFinite(state.u, "displacement");
-    }
+    const bool shortcut = linearShortcut();
+    report_ = shortcut ? oneSolve(linearise, update)
+                       : detail::newtonLoop(model_, newton, A_, *solver_, linearise, update,
+                                            "newmark step " + std::to_string(state.step + 1) + " (t = " +
+                                                std::to_string(t1) + ")",
+                                            &factorised_);
+    updateKinematics();
+    model_.checkFinite(state.u, "displacement");
+    if (shortcut) equilibriumInternalForce(state, fext, Ma, fint);
     // Applied forces: external on free dofs, reactions on prescribed dofs.
     std::vector<double> fApplied = fext, res(n);
     for (std::size_t d = 0; d < map.size(); ++d) {

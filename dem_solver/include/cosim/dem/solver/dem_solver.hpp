@@ -59,7 +59,7 @@ class DemSolver final : public wire::Solver {
   DemSystem system_;
   std::unique_ptr<UnitCellWorker> cells_;  // GMH worker mode (docs/gmh_unit_cells.md)
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
-  std::vector<std::vector<std::uint32_t>> driveMembers_;  // particle indices per settings_.drives entry
+  std::vector<std::size_t> driveZones_;  // the zoneMembers_ entry of each settings_.drives entry
   std::vector<Vec3> referencePositions_;
   std::vector<Vec3> zoneForceSums_;  // per particle, over the last advance; its mean after the advance                 // at setup: displacements are measured from here
   // Wall contacts summed over the sub-steps of one advance, keyed by (particle, triangle)
