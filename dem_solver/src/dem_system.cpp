@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 #include "cosim/dem/contact/builtin_laws.hpp"
@@ -154,6 +155,10 @@ void DemSystem::initialize() {
 }
 
 void DemSystem::advance(double dt) {
+  // Most scenes drive no particle: one scan of the flags decides whether to sum their power.
+  const bool driven =
+      !particles.driven.empty() && std::memchr(particles.driven.data(), 1, particles.driven.size()) != nullptr;
+  const double powerBefore = driven ? drivenPower() : 0.0;
   if (cell.enabled) {
     // The cell and the particles move with the affine field: H <- H + dt L H, x <- x + dt L x.
     const Mat3& L = cell.velocityGradient;
@@ -175,8 +180,38 @@ void DemSystem::advance(double dt) {
   const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
   computeForces(dt, fused * dt);
   if (fused == 0.0) integrator_->afterForces(particles, dt);
+  // Driven particles moved with v over the step while the system pushed on
+  // them with f: the prescribed motion did -f . v dt, f averaged over the step
+  // (trapezoid, second order like the integrator).
+  if (driven) addDriveWork(-0.5 * (powerBefore + drivenPower()) * dt);
   time += dt;
   ++step;
+}
+
+double DemSystem::drivenPower() const {
+  const Particles& p = particles;
+  double power = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.driven[i]) power += dot(p.f[i] + (p.weight[i] * p.mass[i]) * gravity, p.v[i]);
+  return power;
+}
+
+void DemSystem::addDriveWork(double work) {
+  driveWork += work;
+  externalWork += work;
+}
+
+void DemSystem::setDrivenVelocity(std::size_t i, const Vec3& v) {
+  Particles& p = particles;
+  addDriveWork(0.5 * p.weight[i] * p.mass[i] * (norm2(v) - norm2(p.v[i])));
+  p.v[i] = v;
+}
+
+void DemSystem::setDrivenState(std::size_t i, const Vec3& x, const Vec3& v) {
+  Particles& p = particles;
+  addDriveWork(-dot(p.f[i] + (p.weight[i] * p.mass[i]) * gravity, x - p.x[i]));
+  p.x[i] = x;
+  setDrivenVelocity(i, v);
 }
 
 void DemSystem::computeForces(double dt, double closingKick) {

@@ -353,3 +353,87 @@ TEST(DemSolver, CosinePulseDriveMovesItsZoneAndCountsItsWork) {
 
 }  // namespace
 }  // namespace cosim::dem
+
+// Prescribed motion does work: a driven sphere (params.particles driven:
+// true) knocks a free one away under gravity. What holding it on its path
+// takes, -(f + m g) . v dt over the steps, is external work (drive_work), and
+// it balances the stored energy (kinetic + elastic + potential) of both.
+// A step far above the critical one breaks that balance: the solver stops
+// with the numbers instead of running on to a blown-up state.
+namespace cosim::dem {
+namespace {
+
+double balanceGap(const DemSolver& s, double& work, double& driveWork) {
+  double stored = 0.0;
+  for (const auto& [name, value] : s.energies()) {
+    if (name == "kinetic" || name == "elastic" || name == "potential" || name == "dissipated") stored += value;
+    if (name == "external_work") work = value;
+    if (name == "drive_work") driveWork = value;
+  }
+  return stored;
+}
+
+const std::string kKnock = scene(R"(
+      contact: {normal: hertz, tangential: none, damping: none}
+      gravity: [0, 0, -9.81]
+      materials:
+        - {name: glass, density: 2500, young: 1.0e8, poisson: 0.25}
+      particles:
+        - sphere: {position: [-0.03, 0, 0], radius: 0.01, velocity: [1.0, 0, -0.05], driven: true}
+        - sphere: {position: [0, 0, 0], radius: 0.01}
+)");
+
+TEST(DemSolver, DrivenSphereWorkBalancesTheEnergyItPutsIn) {
+  Harness h;
+  DemSolver s;
+  h.setup(s, kKnock);
+  double work = 0.0, driveWork = 0.0;
+  const double start = balanceGap(s, work, driveWork);
+  h.advance(s, 30000, 1.0e-6);  // contact from t = 10 ms, apart again by 30 ms
+  work = driveWork = 0.0;
+  const double stored = balanceGap(s, work, driveWork);
+  const Particles& p = s.system().particles;
+  EXPECT_GT(p.v[1][0], 1.5);   // knocked away (about 2 m/s off a sphere that cannot yield)
+  EXPECT_EQ(driveWork, work);  // the only external work here
+  std::printf("[driven] work %.6e J, stored energy change %.6e J, relative gap %.2e\n", work, stored - start,
+              (stored - start - work) / work);
+  EXPECT_NEAR(stored - start, work, 1e-4 * std::abs(work));
+}
+
+TEST(DemSolver, ABrokenEnergyBalanceStopsTheRunWithTheNumbers) {
+  const std::string head = R"(
+      contact: {normal: hertz, tangential: none, damping: none}
+      force: true
+      materials:
+        - {name: glass, density: 2500, young: 1.0e8, poisson: 0.25}
+      particles:
+        - sphere: {position: [0, 0, 0], radius: 0.01, velocity: [1.0, 0, 0]}
+        - sphere: {position: [0.0205, 0, 0], radius: 0.01}
+)";
+  auto run = [&](const std::string& extra) {
+    Harness h;
+    DemSolver s;
+    h.setup(s, scene(head + extra));
+    const double dt = 40.0 * criticalTimeStep(s.system());
+    for (int k = 0; k < 200; ++k) {
+      h.advance(s, 1, dt);
+      s.energies();
+    }
+    return norm(s.system().particles.v[1]);
+  };
+  try {
+    run("");
+    ADD_FAILURE() << "a step 40 times the critical one ran on";
+  } catch (const wire::SolverError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("energy balance broken"), std::string::npos) << what;
+    EXPECT_NE(what.find("params.energy_tolerance"), std::string::npos) << what;
+    EXPECT_NE(what.find("critical step now"), std::string::npos) << what;
+  }
+  // Turned off, the same run goes on (and gains energy).
+  EXPECT_GT(run("      energy_tolerance: 0\n"), 1.0);
+  EXPECT_NE(errorOf(scene(head + "      energy_tolerance: -1\n")).find("energy_tolerance"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cosim::dem

@@ -115,6 +115,11 @@ class CouplerRun final : public ExchangeDriver {
     session_->setContext(context());
     std::vector<std::pair<std::string, std::uint64_t>> pending;
     std::vector<double> sentAt;
+    // A row records every solver's latest reply. Where only some solvers
+    // advance in this exchange (a sequential schedule's first half), the row
+    // of the next exchange records their reply to this one: ask them now.
+    const bool row = recordsThisExchange() ||
+                     (plans.size() < solverNames().size() && recordsExchange(exchange_ + 1));
     for (const auto& [name, plan] : plans) {
       auto& inputs = inputs_[name];
       wire::OutMessage m(inputs.words());
@@ -125,8 +130,8 @@ class CouplerRun final : public ExchangeDriver {
         adv.setDt(plan.dt);
         adv.setTime(time_);
         adv.setExchange(exchange_);
-        adv.setWantEnergies(wantsEnergies());
-        adv.setWantCriticalDt(recordsThisExchange());
+        adv.setWantEnergies(wantsEnergies(row));
+        adv.setWantCriticalDt(row);
         inputs.build(adv.initInputs());
       }
       // The send is part of the round trip, not of the mapping: where the
@@ -434,9 +439,9 @@ class CouplerRun final : public ExchangeDriver {
   }
 
   /// Energies can cost a sweep over a solver's model: ask for them only when
-  /// this exchange writes a series row, or an analysis or coupling reads them.
-  bool wantsEnergies() const {
-    if (recordsThisExchange()) return true;
+  /// a series row will record this reply, or an analysis or coupling reads them.
+  bool wantsEnergies(bool row) const {
+    if (row) return true;
     if (scene_.reference && scene_.reference->usesEnergies()) return true;
     return std::any_of(scene_.couplings.begin(), scene_.couplings.end(),
                        [](const auto& c) { return c->usesEnergies(); });
@@ -451,9 +456,10 @@ class CouplerRun final : public ExchangeDriver {
   }
 
   /// Rows of /series every output.series_every exchanges, and the last one.
-  bool recordsThisExchange() const {
-    return exchange_ % static_cast<std::uint64_t>(scene_.output.seriesEvery) == 0 ||
-           exchange_ == scene_.schedule->exchanges() || stopRequested();
+  bool recordsThisExchange() const { return recordsExchange(exchange_); }
+  bool recordsExchange(std::uint64_t e) const {
+    return e % static_cast<std::uint64_t>(scene_.output.seriesEvery) == 0 || e == scene_.schedule->exchanges() ||
+           stopRequested();
   }
 
   void record() {

@@ -129,7 +129,10 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
   // stop acting, and several entries (couplings, zones) add up.
   for (auto& e : p.fExt) e = {};
   wire::forEachCouplingForce(inputs.getForces(), proto::CouplingForces::Target::PARTICLES, p.size(), "particle",
-                             [&p](std::uint32_t id, const double* f) { p.fExt[id] += Vec3{f[0], f[1], f[2]}; });
+                             [&](std::uint32_t id, const double* f) {
+                               p.fExt[id] += Vec3{f[0], f[1], f[2]};
+                               tookCouplingForces_ = true;
+                             });
   // Driven particles: kinematics from outside.
   for (auto s : inputs.getParticles()) {
     const auto ids = wire::view(s.getIds());
@@ -142,8 +145,8 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
       if (ids[k] >= p.size())
         throw SolverError(Code::BAD_INPUT, "particle states: particle id " + std::to_string(ids[k]) + " does not exist");
       p.driven[ids[k]] = 1;
-      p.x[ids[k]] = {x[3 * k], x[3 * k + 1], x[3 * k + 2]};
-      if (!v.empty()) p.v[ids[k]] = {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+      system_.setDrivenState(ids[k], {x[3 * k], x[3 * k + 1], x[3 * k + 2]},
+                             v.empty() ? p.v[ids[k]] : Vec3{v[3 * k], v[3 * k + 1], v[3 * k + 2]});
     }
   }
   applyHybridParticles(inputs);
@@ -246,21 +249,18 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
   const std::size_t hybridsBefore = hybrids_.size();
   applyInputs(request.inputs);
   // Hybrid particles arrive with the first exchange, after setup reported the step.
-  if (hybrids_.size() != hybridsBefore) checkDt(request.dt, "exchange " + std::to_string(request.exchange));
+  if (hybrids_.size() != hybridsBefore) {
+    checkDt(request.dt, "exchange " + std::to_string(request.exchange));
+    energyBalanceStarted_ = false;  // new particles bring their own energy
+  }
   contactSums_.assign(system_.meshes.size(), {});
   hybrids_.beginInterval();
   zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
-    if (driveZones_.empty()) {
-      system_.advance(request.dt);
-    } else {
-      drive(request.dt);
-      const double powerBefore = drivePower();
-      system_.advance(request.dt);
-      // The drive holds its particles on their path against the force f the
-      // contacts and bonds exert: its work is -f . v dt, f averaged over the step.
-      addDriveWork(-0.5 * (powerBefore + drivePower()) * request.dt);
-    }
+    // A drive sets its particles' velocities; holding them on that path is
+    // work of the prescribed motion, counted in the step (DemSystem::advance).
+    drive(request.dt);
+    system_.advance(request.dt);
     accumulateWallContacts();
     hybrids_.accumulate(system_.particles);
     for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
@@ -343,32 +343,14 @@ void DemSolver::selectDriveMembers() {
 
 // A driven particle moves by v dt in a step (DemSystem::advance); the
 // history's velocity at the step's midpoint makes that the midpoint rule,
-// second order in dt like the integrator. The drive also supplies the
-// change of its particles' own kinetic energy (weighted, as the energies
-// report it), so external work and stored energy balance at every step.
+// second order in dt like the integrator. Setting the velocity also counts
+// the change of the particles' own kinetic energy (weighted, as the energies
+// report it) as work, so external work and stored energy balance at every step.
 void DemSolver::drive(double dt) {
-  Particles& p = system_.particles;
   for (std::size_t k = 0; k < driveZones_.size(); ++k) {
     const Vec3 v = settings_.drives[k].history->velocity(system_.time + 0.5 * dt);
-    for (std::uint32_t i : zoneMembers_[driveZones_[k]]) {
-      addDriveWork(0.5 * p.weight[i] * p.mass[i] * (norm2(v) - norm2(p.v[i])));
-      p.v[i] = v;
-    }
+    for (std::uint32_t i : zoneMembers_[driveZones_[k]]) system_.setDrivenVelocity(i, v);
   }
-}
-
-void DemSolver::addDriveWork(double work) {
-  system_.driveWork += work;
-  system_.externalWork += work;
-}
-
-/// sum f . v over the driven particles (the power of the forces on them).
-double DemSolver::drivePower() const {
-  const Particles& p = system_.particles;
-  double power = 0.0;
-  for (std::size_t z : driveZones_)
-    for (std::uint32_t i : zoneMembers_[z]) power += dot(p.f[i], p.v[i]);
-  return power;
 }
 
 void DemSolver::fillZones(proto::CouplingData::Builder outputs) const {
@@ -494,14 +476,45 @@ void DemSolver::fields(const std::vector<std::string>& requested, proto::Couplin
 wire::NamedValues DemSolver::energies() const {
   if (cells_) return {};  // unit cells run in pseudo time: their energies mean nothing physical
   const Energies e = dem::energies(system_);
+  checkEnergyBalance(e.kinetic() + e.elastic + e.potential + e.dissipated, e.externalWork);
   wire::NamedValues values{{"kinetic", e.kinetic()},           {"translational", e.translational},
                            {"rotational", e.rotational},       {"elastic", e.elastic},
                            {"potential", e.potential},         {"dissipated", e.dissipated},
                            {"external_work", e.externalWork}};
-  // The drives' share of the external work: what prescribed motion put in
-  // (a coupling's forces do work on particles too, Arlequin's penalty among them).
-  if (!settings_.drives.empty()) values.emplace_back("drive_work", system_.driveWork);
+  // The share of the external work done by prescribed motion (drives, driven
+  // spheres, hybrid PD particles); a coupling's forces do work on particles
+  // too, Arlequin's penalty among them.
+  if (!settings_.drives.empty() || system_.driveWork != 0.0) values.emplace_back("drive_work", system_.driveWork);
   return values;
+}
+
+// Velocity Verlet keeps E - E_0 = W (E: kinetic + elastic + potential +
+// dissipated, W: work of walls, external forces and prescribed motion) to
+// O(dt^2) while it is stable. A step above a contact's stable limit (a
+// coupled run whose contacts stiffen, forces held over a long coarse step)
+// makes the stored energy run away from the work before any value is
+// non-finite: stop such a run with the numbers.
+void DemSolver::checkEnergyBalance(double stored, double work) const {
+  if (!energyBalanceStarted_) {
+    energyBalance_ = util::EnergyBalance(settings_.energyTolerance, "kinetic + elastic + potential + dissipated");
+    // The affine motion of a deforming periodic cell does work no force accounts for.
+    if (system_.cell.enabled) energyBalance_.disable();
+    energyBalance_.start(stored, work);
+    energyBalanceStarted_ = true;
+    return;
+  }
+  const auto broken = energyBalance_.check(stored, work);
+  if (!broken) return;
+  std::ostringstream m;
+  m.precision(6);
+  m << *broken << ", at t = " << system_.time << " s (step " << system_.step
+    << "): the DEM integration is unstable at dt = " << checkedDt_ << " s (critical step now "
+    << criticalTimeStep(system_) << " s)";
+  if (tookCouplingForces_)
+    m << " or external forces from a coupling feed energy in (a penalty or contact stiffness too high for the "
+         "exchange step)";
+  m << "; lower dt, or set params.energy_tolerance: 0 to turn the check off";
+  throw SolverError(Code::SOLVER_FAILURE, m.str());
 }
 
 std::uint64_t DemSolver::checkpoint(const std::string& path) {
@@ -533,6 +546,7 @@ void DemSolver::restore(const std::string& path) {
     throw SolverError(Code::BAD_INPUT, e.what());
   }
   checkedDt_ = 0.0;
+  energyBalanceStarted_ = false;
   zoneForceSums_.clear();
   ready_ = true;
 }

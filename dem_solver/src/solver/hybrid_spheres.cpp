@@ -78,7 +78,6 @@ bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& sys
   if (ids.size() != ids_.size())
     throw std::invalid_argument("hybrid particles: " + std::to_string(ids.size()) + " sent, but the set had " +
                                 std::to_string(ids_.size()) + " (the set is fixed at its first exchange)");
-  Particles& p = system.particles;
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const auto it = slot_.find(ids[k]);
     if (it == slot_.end())
@@ -86,9 +85,7 @@ bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& sys
     const Vec3 xk = at(x, k), vk = at(v, k);
     if (!finite(xk) || !finite(vk))
       throw std::invalid_argument("hybrid particles: non-finite state of id " + std::to_string(ids[k]));
-    const std::uint32_t i = index_[it->second];
-    p.x[i] = xk;
-    p.v[i] = vk;
+    system.setDrivenState(index_[it->second], xk, vk);
   }
   return first;
 }

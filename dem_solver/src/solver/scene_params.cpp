@@ -279,7 +279,7 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
 
 void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& system, RunSettings& settings) {
   const YamlSection params(node, sceneFile, "params",
-                           {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance",
+                           {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance", "energy_tolerance",
                             "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds",
                             "zones", "drives", "hybrid"});
   const YamlSection contact = params.child("contact", {"normal", "tangential", "damping"});
@@ -309,6 +309,8 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   settings.force = params.flag("force", false);
   settings.overlapTolerance = params.number("overlap_tolerance", 0.01);
   if (settings.overlapTolerance < 0.0) params.fail("overlap_tolerance", "must be >= 0");
+  settings.energyTolerance = params.number("energy_tolerance", 0.5);
+  if (!(settings.energyTolerance >= 0.0)) params.fail("energy_tolerance", "must be >= 0 (0 turns the check off)");
   system.massDamping = params.number("mass_damping", 0.0);
   if (system.massDamping < 0.0) params.fail("mass_damping", "must be >= 0");
   if (params.has("periodic")) {

@@ -117,7 +117,7 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
 }
 
 void PdSolver::startEnergyBalance() {
-  energyBalance_ = EnergyBalance(config_.energyTolerance);
+  energyBalance_ = util::EnergyBalance(config_.energyTolerance);
   // Runs whose balance does not close by design: relaxation damps the motion,
   // breaking bonds releases energy, a prescribed velocity's reaction does work
   // that is not counted.

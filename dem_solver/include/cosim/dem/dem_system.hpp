@@ -44,7 +44,7 @@ class DemSystem {
   double massDamping = 0.0;     // c of the mass damping force -c m v (dynamic relaxation, Liu 2016 Sec. 2.3.2) [1/s]
   double dissipated = 0.0;      // energy lost in dashpots and sliding [J]
   double externalWork = 0.0;    // work of moving walls, external forces and drives [J]
-  double driveWork = 0.0;       // the drives' share of it (params.drives): energy put in by prescribed motion [J]
+  double driveWork = 0.0;       // its share done by prescribed motion (driven particles, drives, hybrid PD particles) [J]
   // Pairs kept out of the contact law besides bonded ones: hybrid PD particles
   // of one family (Hartmann 2022 Sec. 3.1). Applied by initialize().
   std::vector<std::pair<std::uint32_t, std::uint32_t>> excludedPairs;
@@ -58,6 +58,13 @@ class DemSystem {
   void initialize();
   /// One time step of size dt.
   void advance(double dt);
+  /// Sets driven particle i's velocity from outside. The kinetic energy that
+  /// changes by is work of the prescribed motion (driveWork, externalWork).
+  void setDrivenVelocity(std::size_t i, const Vec3& v);
+  /// Sets driven particle i's position and velocity from outside. Moving it
+  /// against the force on it (contacts, walls and its weight, from the last
+  /// evaluation) is work of the prescribed motion too: -(f + w m g) . dx.
+  void setDrivenState(std::size_t i, const Vec3& x, const Vec3& v);
   /// Forces and torques of the current positions and velocities. With
   /// closingKick > 0 each free particle is then kicked over closingKick
   /// (Integrator::fusedKick) as soon as its force is complete.
@@ -92,6 +99,10 @@ class DemSystem {
   template <bool Periodic, class Normal, class Tangential>
   void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
   void gatherForces(double dt, double closingKick);
+  /// sum over driven particles of (f + w m g) . v: the power that holding
+  /// them on their prescribed path takes, with the opposite sign.
+  double drivenPower() const;
+  void addDriveWork(double work);
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
   /// Plane candidates of each particle, with the neighbour list (see planeNear).

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "cosim/pd/energy_balance.hpp"
+#include "cosim/util/energy_balance.hpp"
 #include "cosim/pd/scene.hpp"
 #include "cosim/pd/snapshot.hpp"
 #include "cosim/pd/system.hpp"
@@ -50,7 +50,7 @@ class PdSolver final : public cosim::wire::Solver {
   std::uint64_t advances_ = 0;
   double lastDt_ = 0.0;
   // Checked whenever energies are asked for; the check keeps the largest energy seen.
-  mutable EnergyBalance energyBalance_;
+  mutable util::EnergyBalance energyBalance_;
   bool ready_ = false;
 };
 

@@ -9,6 +9,7 @@
 #include "cosim/dem/io/snapshot_writer.hpp"
 #include "cosim/dem/solver/hybrid_spheres.hpp"
 #include "cosim/dem/solver/scene_params.hpp"
+#include "cosim/util/energy_balance.hpp"
 #include "cosim/wire/solver.hpp"
 
 namespace cosim::dem {
@@ -53,10 +54,15 @@ class DemSolver final : public wire::Solver {
   /// params.drives: their zones' particles become driven, at the history's velocity.
   void selectDriveMembers();
   void drive(double dt);
-  double drivePower() const;
-  void addDriveWork(double work);
   void checkFinite() const;
+  /// Throws when the energy balance broke (stored: kinetic + elastic + potential + dissipated).
+  void checkEnergyBalance(double stored, double work) const;
   DemSystem system_;
+  // The run-time stability check (params.energy_tolerance), started at the
+  // first energies asked for after setup, a restore or the hybrid particles' arrival.
+  mutable util::EnergyBalance energyBalance_;
+  mutable bool energyBalanceStarted_ = false;
+  bool tookCouplingForces_ = false;  // some exchange brought external forces (named when the balance breaks)
   std::unique_ptr<UnitCellWorker> cells_;  // GMH worker mode (docs/gmh_unit_cells.md)
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
   std::vector<std::size_t> driveZones_;  // the zoneMembers_ entry of each settings_.drives entry

@@ -9,6 +9,7 @@
 //     dt: 1.0e-6                         # optional: checked against the critical step
 //     force: false                       # accept dt above the critical step
 //     overlap_tolerance: 0.01            # initial overlap allowed, fraction of the smaller radius
+//     energy_tolerance: 0.5              # stop when the energy balance is off by more (share of the largest energy; 0 = off)
 //     materials: [{name, density, young, poisson, restitution, friction, kn, kt}]
 //     particles:                         # a list of sources
 //       - {lattice: {origin, spacing, counts, radius, kind, material, velocity}}
@@ -53,6 +54,7 @@ struct RunSettings {
   double dt = 0.0;
   bool force = false;
   double overlapTolerance = 0.01;
+  double energyTolerance = 0.5;  // util::EnergyBalance tolerance (0 = off)
   long snapshotEvery = 0;
   std::string snapshotFile;
   std::vector<ExportZone> zones;

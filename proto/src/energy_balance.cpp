@@ -1,10 +1,10 @@
-#include "cosim/pd/energy_balance.hpp"
+#include "cosim/util/energy_balance.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
-namespace cosim::pd {
+namespace cosim::util {
 
 void EnergyBalance::start(double stored, double work) {
   // Work is cumulative from the start of the run: the energy stored when no
@@ -22,11 +22,11 @@ std::optional<std::string> EnergyBalance::check(double stored, double work) {
   if (!(scale_ > 0.0) || gap <= tolerance_ * scale_) return std::nullopt;
   std::ostringstream s;
   s.precision(4);
-  s << "energy balance broken: the stored energy (kinetic + strain) changed by " << stored - storedAtStart_
+  s << "energy balance broken: the stored energy (" << stored_ << ") changed by " << stored - storedAtStart_
     << " J while the external forces did " << work << " J of work; the gap " << gap << " J is "
     << 100.0 * gap / scale_ << " % of the largest energy so far (" << scale_ << " J), above params.energy_tolerance = "
     << 100.0 * tolerance_ << " %";
   return s.str();
 }
 
-}  // namespace cosim::pd
+}  // namespace cosim::util
