@@ -19,8 +19,12 @@ class EnergyBalance {
   /// tolerance: the largest |stored change - work| as a share of the largest
   /// energy seen so far (stored, stored at the start or |work|); 0 = off.
   /// stored: what the stored energy is made of, for the message ("kinetic + strain").
-  explicit EnergyBalance(double tolerance = 0.0, std::string stored = "kinetic + strain")
-      : tolerance_(tolerance), stored_(std::move(stored)) {}
+  /// checks: how many checks in a row must find the gap above the tolerance.
+  /// A contact that starts inside a step makes a gap of the order of its
+  /// own small energy at the first check, which the following checks
+  /// shrink; an unstable integration keeps it.
+  explicit EnergyBalance(double tolerance = 0.0, std::string stored = "kinetic + strain", int checks = 1)
+      : tolerance_(tolerance), stored_(std::move(stored)), checks_(checks) {}
 
   /// Starts the balance at `stored` with `work` already done (0 on a fresh
   /// run; the checkpoint's work on a restore).
@@ -30,11 +34,15 @@ class EnergyBalance {
   bool active() const { return tolerance_ > 0.0 && !disabled_; }
 
   /// Empty while the balance holds; otherwise what broke, in numbers.
-  std::optional<std::string> check(double stored, double work);
+  /// magnitude: the size of the energies involved where the stored total
+  /// can stay small while its parts are large (potential energy turned
+  /// into kinetic and dissipated); it joins the scale the gap is judged against.
+  std::optional<std::string> check(double stored, double work, double magnitude = 0.0);
 
  private:
   double tolerance_ = 0.0;
   std::string stored_;
+  int checks_ = 1, above_ = 0;  // checks needed, and found above the tolerance in a row
   double storedAtStart_ = 0.0, scale_ = 0.0;
   bool disabled_ = false;
 };

@@ -7,6 +7,7 @@
 #include "cosim/dem/cell/unit_cell_worker.hpp"
 #include "cosim/dem/dem_system.hpp"
 #include "cosim/dem/io/snapshot_writer.hpp"
+#include "cosim/dem/measure/measures.hpp"
 #include "cosim/dem/solver/hybrid_spheres.hpp"
 #include "cosim/dem/solver/scene_params.hpp"
 #include "cosim/util/energy_balance.hpp"
@@ -55,13 +56,14 @@ class DemSolver final : public wire::Solver {
   void selectDriveMembers();
   void drive(double dt);
   void checkFinite() const;
-  /// Throws when the energy balance broke (stored: kinetic + elastic + potential + dissipated).
-  void checkEnergyBalance(double stored, double work) const;
+  /// Throws when the energy balance broke (params.energy_tolerance).
+  void checkEnergyBalance(const Energies& e, double work) const;
   DemSystem system_;
   // The run-time stability check (params.energy_tolerance), started at the
   // first energies asked for after setup, a restore or the hybrid particles' arrival.
   mutable util::EnergyBalance energyBalance_;
   mutable bool energyBalanceStarted_ = false;
+  mutable double potentialAtStart_ = 0.0;
   bool tookCouplingForces_ = false;  // some exchange brought external forces (named when the balance breaks)
   std::unique_ptr<UnitCellWorker> cells_;  // GMH worker mode (docs/gmh_unit_cells.md)
   std::vector<std::vector<std::uint32_t>> zoneMembers_;  // particle indices per settings_.zones entry
