@@ -476,7 +476,7 @@ void DemSolver::fields(const std::vector<std::string>& requested, proto::Couplin
 wire::NamedValues DemSolver::energies() const {
   if (cells_) return {};  // unit cells run in pseudo time: their energies mean nothing physical
   const Energies e = dem::energies(system_);
-  checkEnergyBalance(e, e.externalWork);
+  checkEnergyBalance(e);
   wire::NamedValues values{{"kinetic", e.kinetic()},           {"translational", e.translational},
                            {"rotational", e.rotational},       {"elastic", e.elastic},
                            {"potential", e.potential},         {"dissipated", e.dissipated},
@@ -494,15 +494,12 @@ wire::NamedValues DemSolver::energies() const {
 // coupled run whose contacts stiffen, forces held over a long coarse step)
 // makes the stored energy run away from the work before any value is
 // non-finite: stop such a run with the numbers.
-void DemSolver::checkEnergyBalance(const Energies& e, double work) const {
+void DemSolver::checkEnergyBalance(const Energies& e) const {
   // Potential energy counts from its value at the start (its origin is
   // arbitrary: m g z far from z = 0 would swamp the scale), and the scale
   // holds every part's size: a settling packing turns potential energy into
   // kinetic and dissipated energy while their sum stays near zero.
-  if (!energyBalanceStarted_) potentialAtStart_ = e.potential;
-  const double potential = e.potential - potentialAtStart_;
-  const double stored = e.kinetic() + e.elastic + e.dissipated + potential;
-  const double magnitude = e.kinetic() + std::abs(e.elastic) + std::abs(e.dissipated) + std::abs(potential);
+  const double dynamic = e.kinetic() + e.elastic + e.dissipated;
   if (!energyBalanceStarted_) {
     // Two checks in a row: a contact's first step (trapezoidal work against
     // Hertz's rise from zero) can leave a quarter of its small energy as gap.
@@ -510,11 +507,14 @@ void DemSolver::checkEnergyBalance(const Energies& e, double work) const {
                                          "kinetic + elastic + dissipated + potential since the start", 2);
     // The affine motion of a deforming periodic cell does work no force accounts for.
     if (system_.cell.enabled) energyBalance_.disable();
-    energyBalance_.start(stored, work);
+    potentialAtStart_ = e.potential;
+    energyBalance_.start(dynamic, e.externalWork);
     energyBalanceStarted_ = true;
     return;
   }
-  const auto broken = energyBalance_.check(stored, work, magnitude);
+  const double potential = e.potential - potentialAtStart_;
+  const double magnitude = e.kinetic() + std::abs(e.elastic) + std::abs(e.dissipated) + std::abs(potential);
+  const auto broken = energyBalance_.check(dynamic + potential, e.externalWork, magnitude);
   if (!broken) return;
   std::ostringstream m;
   m.precision(6);

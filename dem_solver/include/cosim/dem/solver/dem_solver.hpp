@@ -57,7 +57,7 @@ class DemSolver final : public wire::Solver {
   void drive(double dt);
   void checkFinite() const;
   /// Throws when the energy balance broke (params.energy_tolerance).
-  void checkEnergyBalance(const Energies& e, double work) const;
+  void checkEnergyBalance(const Energies& e) const;
   DemSystem system_;
   // The run-time stability check (params.energy_tolerance), started at the
   // first energies asked for after setup, a restore or the hybrid particles' arrival.
