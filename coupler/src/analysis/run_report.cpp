@@ -31,6 +31,9 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
                           {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
                           {"critical_dt_s", p.criticalDt}, {"critical_dt_min_s", p.minCriticalDt},
                           {"cpus", p.cpus}});
+  if (host)
+    j["host"] = {{"cpus", host->cpus}, {"busy_cpu_s", host->busyS}, {"steal_cpu_s", host->stealS},
+                 {"steal_share", stealShare()}};
   j["final_energies_J"] = finalEnergies;
   j["coupling_overhead_share"] = couplingOverheadShare();
   j["errors"] = nlohmann::json::array();
@@ -49,6 +52,11 @@ double RunReport::couplingOverheadShare() const {
   return overhead / loopS;
 }
 
+double RunReport::stealShare() const {
+  if (!host || host->cpus <= 0 || !(wallS > 0.0)) return 0.0;
+  return host->stealS / (host->cpus * wallS);
+}
+
 std::string RunReport::text() const {
   std::ostringstream s;
   s << std::fixed << std::setprecision(3);
@@ -59,6 +67,9 @@ std::string RunReport::text() const {
   s << "  exchanges     " << exchanges << " of " << plannedExchanges << ", simulated t = " << std::setprecision(6)
     << simulatedTime << " s of " << endTime << " s\n" << std::setprecision(3);
   s << "  wall time     " << wallS << " s (startup " << startupS << " s, exchange loop " << loopS << " s)\n";
+  if (host)
+    s << "  host          " << host->cpus << " CPUs busy " << host->busyS << " s, steal " << host->stealS << " s ("
+      << 100.0 * stealShare() << " % of their time)\n";
   const double loop = loopS > 0 ? loopS : 1.0;
   s << "  coupler       mapping " << mappingS << " s (" << 100.0 * mappingS / loop << " %), output " << outputS
     << " s (" << 100.0 * outputS / loop << " %)\n";

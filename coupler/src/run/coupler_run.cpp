@@ -16,6 +16,7 @@
 #include "cosim/coupler/run/checkpoint_store.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/util/cpu_affinity.hpp"
+#include "cosim/util/host_cpu_time.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/clock.hpp"
 #include "cosim/wire/log.hpp"
@@ -24,6 +25,12 @@ namespace cosim::coupler {
 namespace fs = std::filesystem;
 
 namespace {
+
+/// Steal above this share of the machine's CPU time earns the run a warning,
+/// once it is long enough to matter: /proc/stat counts in 10 ms ticks, so one
+/// tick in a 0.1 s run would already read as 5 %.
+constexpr double kStealWarning = 0.05;
+constexpr double kStealWarningMinS = 0.5;
 
 /// A refusal before time zero (handshake, capability, setup or stability).
 struct Refused : std::runtime_error {
@@ -70,6 +77,7 @@ class CouplerRun final : public ExchangeDriver {
 
   int run() {
     const double start = monotonicSeconds();
+    const auto hostAtStart = util::readHostCpuTimes();
     try {
       prepareOutput();
       applyPlacement();
@@ -100,6 +108,7 @@ class CouplerRun final : public ExchangeDriver {
     }
     if (report_.loopS == 0.0 && report_.startupS > 0.0) report_.loopS = monotonicSeconds() - start - report_.startupS;
     report_.wallS = monotonicSeconds() - start;
+    noteHostLoad(hostAtStart);
     return conclude();
   }
 
@@ -501,6 +510,21 @@ class CouplerRun final : public ExchangeDriver {
     report_.exitCode = code;
     report_.exchanges = completed_;
     report_.simulatedTime = time_;
+  }
+
+  // Steal time above a few percent means the wall times (and every ratio
+  // built on them) measure the neighbours as much as this run.
+  void noteHostLoad(const std::optional<util::HostCpuTimes>& atStart) {
+    const auto now = util::readHostCpuTimes();
+    if (!atStart || !now) return;
+    report_.host = *now - *atStart;
+    if (const double share = report_.stealShare(); share > kStealWarning && report_.host->stealS >= kStealWarningMinS) {
+      std::ostringstream w;
+      w.precision(3);
+      w << "the hypervisor took " << 100.0 * share << " % of the CPUs' time during the run (steal "
+        << report_.host->stealS << " s over " << report_.host->cpus << " CPUs): the wall times are disturbed";
+      report_.warnings.push_back(w.str());
+    }
   }
 
   int conclude() {

@@ -519,11 +519,19 @@ void DemSolver::checkEnergyBalance(const Energies& e) const {
   std::ostringstream m;
   m.precision(6);
   m << *broken << ", at t = " << system_.time << " s (step " << system_.step
-    << "): the DEM integration is unstable at dt = " << checkedDt_ << " s (critical step now "
-    << criticalTimeStep(system_) << " s)";
+    << "): the DEM integration is unstable at dt = " << checkedDt_ << " s (";
+  // Every particle driven (H2's indenters and hybrids alone) leaves no step
+  // bound here: say so instead of printing 0.
+  if (const double crit = criticalDt(); crit > 0.0)
+    m << "critical step now " << crit << " s)";
+  else
+    m << "no free or hybrid particle in contact bounds the step)";
   if (tookCouplingForces_)
     m << " or external forces from a coupling feed energy in (a penalty or contact stiffness too high for the "
          "exchange step)";
+  if (!hybrids_.particleIndices().empty())
+    m << " or the hybrid particles' motion, set by their peridynamic solver, feeds energy into their contacts "
+         "(an exchange interval too long for the contact stiffness, or contact forces held over it)";
   m << "; lower dt, or set params.energy_tolerance: 0 to turn the check off";
   throw SolverError(Code::SOLVER_FAILURE, m.str());
 }

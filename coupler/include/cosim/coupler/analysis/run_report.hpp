@@ -4,8 +4,11 @@
 // compute and communication, the coupler's own mapping and output work).
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "cosim/util/host_cpu_time.hpp"
 
 namespace cosim::coupler {
 
@@ -52,6 +55,9 @@ struct RunReport {
   double loopS = 0.0;      // the exchange loop
   double mappingS = 0.0;   // couplings and request assembly in the coupler
   double outputS = 0.0;    // HDF5 series and flushes
+  /// What the whole machine did over the run (Linux): busy and steal time
+  /// of every CPU, other processes' and the hypervisor's work included.
+  std::optional<util::HostCpuTimes> host;
   std::vector<PeerTiming> peers;
   std::map<std::string, double> finalEnergies;  // "solver.name" -> J
   std::vector<ErrorFigure> errors;              // the first one is the scene's error metric
@@ -60,6 +66,9 @@ struct RunReport {
 
   /// Communication of every peer plus the coupler's mapping, as a share of the exchange loop.
   double couplingOverheadShare() const;
+  /// The hypervisor's steal time as a share of the machine's CPU time over
+  /// the run (CPUs x wall); 0 where the host's times are unknown.
+  double stealShare() const;
 
   void writeJson(const std::filesystem::path& path) const;
   std::string text() const;
