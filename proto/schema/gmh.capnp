@@ -5,7 +5,9 @@ $Cxx.namespace("cosim::proto");
 
 struct UnitCellJobs {
   cellIds @0 :List(UInt32);
-  strainIncrements @1 :List(Float64);   # 9 per cell, corotational, row-major (Liu Eq. 60)
+  strainIncrements @1 :List(Float64);   # 9 per cell, row-major, in the cells' frame: corotational
+                                        # (Liu Eq. 60) or, where FEM's material says frame: spatial,
+                                        # the whole increment log(F_n+1 F_n^-1), spin included
   dt @2 :Float64;                       # coarse time step the increment spans
   positions @3 :List(Float64);          # 3 per cell: its quadrature point's reference position
                                         # (the nonlocal operator's neighbour sets, Liu Eqs. 58-59)
@@ -13,7 +15,7 @@ struct UnitCellJobs {
 
 struct UnitCellResults {
   cellIds @0 :List(UInt32);
-  stresses @1 :List(Float64);           # 9 per cell, corotational Cauchy stress (Liu Eq. 44b)
+  stresses @1 :List(Float64);           # 9 per cell, Cauchy stress in the cells' frame (Liu Eq. 44b)
   porosities @2 :List(Float64);
   coordinationNumbers @3 :List(Float64);
   unbalancedForceIndices @4 :List(Float64); # Liu Eq. 57

@@ -52,5 +52,39 @@ TEST(FemCorotational, StretchInRotatedFrame) {
   EXPECT_LT((Fn1 * S * Fn1.transpose() / Fn1.determinant() - sigma).cwiseAbs().maxCoeff(), 1e-14);
 }
 
+// frame: spatial: the whole increment log(F_n+1 F_n^-1). Its exponential
+// gives the increment of F back (the cell follows F exactly, spin included);
+// a rigid rotation gives a skew increment (the cell turns, no strain); a
+// stretch along a rotated axis gives ln(lambda_n+1 / lambda_n) along it.
+TEST(FemCorotational, LogarithmicIncrementReproducesTheStep) {
+  const Mat3 Fn = (Mat3() << 1.01, 0.02, 0, -0.01, 0.98, 0.004, 0.003, 0, 1.005).finished();
+  const Mat3 dF = (Mat3() << 1.003, 0.004, -0.001, 0.0, 0.998, 0.002, 0.001, -0.002, 1.001).finished();
+  const Mat3 Fn1 = dF * Fn;
+  const Mat3 d = corotational::logarithmicIncrement(Fn, Fn1);
+  Mat3 expD = Mat3::Identity(), term = Mat3::Identity();
+  for (int k = 1; k < 20; ++k) expD += (term = term * d / k);
+  EXPECT_LT((expD - dF).cwiseAbs().maxCoeff(), 1e-15);
+
+  const Mat3 R0 = Eigen::AngleAxisd(0.3, Vec3(0, 0, 1)).toRotationMatrix();
+  const Mat3 R1 = Eigen::AngleAxisd(0.31, Vec3(0, 0, 1)).toRotationMatrix();
+  const Mat3 spin = corotational::logarithmicIncrement(R0, R1);
+  EXPECT_LT((spin + spin.transpose()).cwiseAbs().maxCoeff(), 1e-16);
+  EXPECT_NEAR(spin(1, 0), 0.01, 1e-15);
+
+  const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(0, 0, 1)).toRotationMatrix();
+  const Mat3 stretch = corotational::logarithmicIncrement(R * Vec3(1.01, 1.0, 1.0).asDiagonal() * R.transpose(),
+                                                          R * Vec3(1.02, 1.0, 1.0).asDiagonal() * R.transpose());
+  const Mat3 expected = R * Vec3(std::log(1.02 / 1.01), 0, 0).asDiagonal() * R.transpose();
+  EXPECT_LT((stretch - expected).cwiseAbs().maxCoeff(), 1e-15);
+
+  // Not an increment: refused, with the size.
+  try {
+    corotational::logarithmicIncrement(Mat3::Identity(), 2.0 * Mat3::Identity());
+    ADD_FAILURE() << "a doubling of F was taken as an increment";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not small"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace cosim::fem

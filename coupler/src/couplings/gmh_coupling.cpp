@@ -1,11 +1,12 @@
 // gmh: hierarchical FEM x DEM (Liu 2016 Sec. 2.3, Fig. 3; DESIGN.md 6.2). FEM
 // (external material, explicit) sends one unit-cell job per quadrature point
-// each coarse step: the corotational strain increment (Eq. 60). A pool of
+// each coarse step: the corotational strain increment (Eq. 60; or the whole
+// increment, spin included, where FEM's material says frame: spatial). A pool of
 // dem_solver workers holds the cells, each cell on one worker for the whole
 // run (sticky: a cell's state lives where it was loaded; the workers announce
 // their cells in their setup replies). The coupling splits the jobs by owner,
-// the workers run them at the same time, and it gathers their corotational
-// Cauchy stresses (Eq. 44b) with porosity, coordination number, unbalanced-
+// the workers run them at the same time, and it gathers their Cauchy
+// stresses (Eq. 44b, in the cells' frame) with porosity, coordination number, unbalanced-
 // force index (Eq. 57) and relaxation steps into one result list for FEM.
 // Pair it with `schedule: {kind: multirate, fine: [workers...], ratio: 1,
 // order: coarse-first}`: FEM predicts, then the workers answer.
@@ -304,8 +305,8 @@ class GmhCoupling final : public Coupling {
   }
 
   /// cell_ids (the column order), cell_porosity, cell_coordination, and
-  /// cell_stress (9 values per cell, row-major, the corotational Cauchy stress
-  /// the cell returned, Eq. 44b, tension positive).
+  /// cell_stress (9 values per cell, row-major, the Cauchy stress the cell
+  /// returned in its frame, Eq. 44b, tension positive).
   void recordCells(const ExchangeContext& ctx) {
     const std::size_t n = gathered_.ids.size();
     order_.resize(n);

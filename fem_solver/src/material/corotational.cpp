@@ -23,6 +23,22 @@ Increment strainIncrement(const Mat3& Fn, const Mat3& Fn1) {
   return inc;
 }
 
+Mat3 logarithmicIncrement(const Mat3& Fn, const Mat3& Fn1) {
+  // log(I + A) = A - A^2/2 + A^3/3 - ...; GMH increments are small (|A| about
+  // 1e-4 to 1e-2 per coarse step), so a few terms reach round-off.
+  const Mat3 A = Fn1 * Fn.inverse() - Mat3::Identity();
+  const double size = A.norm();
+  if (!(size < 0.5))
+    throw InputError("deformation increment |F_n+1 F_n^-1 - I| = " + std::to_string(size) +
+                     " is not small (at least 0.5): no logarithmic strain increment");
+  Mat3 term = A, out = Mat3::Zero();
+  for (int k = 1; k <= 60 && term.norm() > 1e-17 * size; ++k) {
+    out += ((k % 2) ? 1.0 : -1.0) / k * term;
+    term = term * A;
+  }
+  return out;
+}
+
 Mat3 rotateToGlobal(const Mat3& R, const Mat3& sigmaCorotational) {
   return R * sigmaCorotational * R.transpose();  // Liu Eq. 62
 }

@@ -7,9 +7,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "cosim/fem/coupling/surface_export.hpp"
-#include "cosim/fem/material/corotational.hpp"
 #include "cosim/fem/material/external_stress.hpp"
 #include "cosim/fem/mesh/gmsh_reader.hpp"
 #include "cosim/fem/coupling/volume_zone.hpp"
@@ -145,6 +145,15 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     ParamMap mat = p.map("material");
     const std::string matName = mat.text("model", "st-venant-kirchhoff");
     MaterialParams mp{mat.number("E"), mat.number("nu"), mat.number("density")};
+    // GMH cells' frame (external material only): Liu's corotational one or spatial.
+    std::optional<CellFrame> cellFrame;
+    if (mat.has("frame")) {
+      const std::string f = mat.text("frame");
+      if (matName != "external") mat.fail(mat.get("frame"), path + ".material.frame applies to model: external only");
+      if (f != "corotational" && f != "spatial")
+        mat.fail(mat.get("frame"), path + ".material.frame must be corotational or spatial, not '" + f + "'");
+      cellFrame = f == "spatial" ? CellFrame::Spatial : CellFrame::Corotational;
+    }
     mat.finish();
     const std::string formName = p.text("formulation", "full");
     const FormulationOptions fo = readHourglass(p, formName);
@@ -374,6 +383,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     p.finish();
     // GMH: an external material takes its stresses from unit-cell results.
     external_ = dynamic_cast<ExternalStressMaterial*>(&model_->material());
+    if (external_ && cellFrame) external_->setFrame(*cellFrame);
     state_ = State{};
     state_.resize(model_->numDofs());
     const auto& X = model_->mesh().X;
@@ -543,7 +553,7 @@ void FemSolver::applyUnitCellResults(proto::CouplingData::Reader inputs) {
         if (!std::isfinite(stresses[9 * k + c]))
           throw SolverError(Code::BAD_INPUT, "unit-cell results: non-finite stress for cell " + std::to_string(ids[k]));
       try {
-        external_->setCorotationalStress(ids[k], stresses.data() + 9 * k);
+        external_->setCellStress(ids[k], stresses.data() + 9 * k);
       } catch (const InputError& e) {
         throw SolverError(Code::BAD_INPUT, std::string("unit-cell results: ") + e.what());
       }
@@ -552,8 +562,9 @@ void FemSolver::applyUnitCellResults(proto::CouplingData::Reader inputs) {
 }
 
 void FemSolver::fillUnitCellJobs(proto::CouplingData::Builder outputs, double dt) {
-  // Liu 2016 Eqs. 60-61: corotational strain increment of every point over
-  // the exchange interval, from the midstep deformation gradient.
+  // The strain increment of every point over the exchange interval, in its
+  // cell's frame: corotational from the midstep gradient (Liu 2016 Eqs.
+  // 60-61) or the whole logarithmic one (frame: spatial).
   const std::vector<double> Fnew = pointDeformationGradients();
   const std::size_t np = Fnew.size() / 9;
   auto jobs = outputs.initUnitCellJobs(1)[0];
@@ -569,7 +580,12 @@ void FemSolver::fillUnitCellJobs(proto::CouplingData::Builder outputs, double dt
   for (std::size_t p = 0; p < np; ++p) {
     const Mat3 F0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pointF_.data() + 9 * p);
     const Mat3 F1 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(Fnew.data() + 9 * p);
-    const Mat3 d = corotational::strainIncrement(F0, F1).strainIncrement;
+    Mat3 d;
+    try {
+      d = external_->cellIncrement(F0, F1);
+    } catch (const InputError& e) {
+      throw SolverError(Code::SOLVER_FAILURE, "material point " + std::to_string(p) + ": " + e.what());
+    }
     ids.set(static_cast<unsigned>(p), static_cast<std::uint32_t>(p));
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) inc.set(static_cast<unsigned>(9 * p + static_cast<std::size_t>(3 * i + j)), d(i, j));

@@ -22,6 +22,14 @@ struct Increment {
 /// Delta L skew (a Cayley transform), hence exactly no strain increment.
 Increment strainIncrement(const Mat3& Fn, const Mat3& Fn1);
 
+/// The spatial alternative (frame: spatial): the whole increment of the
+/// gradient, spin included, log(F_{n+1} F_n^-1). A cell deformed affinely by
+/// it (x <- exp(Delta L) x) follows F exactly and turns with the material,
+/// as a directly sheared DEM sample does; its stress is then the lab-frame
+/// Cauchy stress. Throws InputError when |F_{n+1} F_n^-1 - I| >= 0.5 (no
+/// small increment: the series would not converge).
+Mat3 logarithmicIncrement(const Mat3& Fn, const Mat3& Fn1);
+
 /// Liu 2016 Eq. 62: sigma = R sigma^R R^T.
 Mat3 rotateToGlobal(const Mat3& R, const Mat3& sigmaCorotational);
 
