@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scene L4, reduced (Liu, Sun, Fish 2016 Sec. 3.4): prepares a unit cell and
-# its weakened variant (dem_prepare_cell --remove 25), runs
+# its weakened variant (dem_prepare_cell --remove 25, or $L4_REMOVE), runs
 # configs/gmh/l4_simple_shear.yaml on them (coupler + fem_solver + two
 # dem_solver workers, one OpenMP thread each) and prints the shear response,
 # the pool-mean porosity and coordination against the nominal shear strain,
@@ -10,7 +10,9 @@
 # The top's speed gives 20 % over the coarse steps; "stop after" ends the run
 # sooner at that same speed (bench/gmh/l4_cost_ratio.sh times the first 1 %).
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
-# Environment: COSIM_BIN (default build/bin), L4_WORK (default a fresh /tmp dir).
+# Environment: COSIM_BIN (default build/bin), L4_WORK (default a fresh /tmp dir),
+# L4_REMOVE (default 25, Liu's count) spheres taken out of the weakened cell:
+# 25 of Liu's 4096 is 0.6 %, of a 500-sphere cell 5 %; 3 keeps Liu's share.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -22,7 +24,9 @@ work=${L4_WORK:-$(mktemp -d /tmp/gmh-l4.XXXXXX)}
 mkdir -p "$work"
 source "$root/bench/gmh/gmh_scene.sh"
 t0=$(date +%s)
-gmh_prepare_cell "$count" --remove 25
+remove=${L4_REMOVE:-25}
+[[ "$remove" =~ ^[1-9][0-9]*$ ]] || { echo "l4_simple_shear.sh: L4_REMOVE must be a positive whole number (got '$remove')" >&2; exit 2; }
+gmh_prepare_cell "$count" --remove "$remove"
 t1=$(date +%s)
 # 20 % nominal shear strain over the run whatever the step count (0.59 m/s at 2000 steps).
 speed=$(python3 -c "import sys; print(0.2 * 0.118 / (int(sys.argv[1]) * 2e-5))" "$steps")
