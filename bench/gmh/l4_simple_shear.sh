@@ -12,7 +12,9 @@
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
 # Environment: COSIM_BIN (default build/bin), L4_WORK (default a fresh /tmp dir),
 # L4_REMOVE (default 25, Liu's count) spheres taken out of the weakened cell:
-# 25 of Liu's 4096 is 0.6 %, of a 500-sphere cell 5 %; 3 keeps Liu's share.
+# 25 of Liu's 4096 is 0.6 %, of a 500-sphere cell 5 %; 3 keeps Liu's share;
+# L4_NONLOCAL (none) the gmh coupling's nonlocal map, e.g.
+# "{radius: 0.0135, local_fraction: 0.15}" (Liu Eqs. 58-59).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -35,7 +37,8 @@ gmh_run "$root/configs/gmh/l4_simple_shear.yaml" --set "schedule.coarse_steps=$s
   --set "solvers.block.params.initial_velocity={gradient: {x: [0, $(python3 -c "import sys; print(float(sys.argv[1]) / 0.118)" "$speed"), 0]}}" \
   --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
   --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" \
-  --set "solvers.cells_b.params.unit_cells.weakened.file=$work/cell_weak.ckpt"
+  --set "solvers.cells_b.params.unit_cells.weakened.file=$work/cell_weak.ckpt" \
+  ${L4_NONLOCAL:+--set "couplings.cells.nonlocal=$L4_NONLOCAL"}
 t2=$(date +%s)
 /usr/bin/python3 "$root/bench/gmh/l4_shear_band.py" "$work/run" --at "$at"
 echo "(preparation $((t1 - t0)) s, GMH run $((t2 - t1)) s; files in $work)"
