@@ -36,7 +36,6 @@ class ExternalStressMaterial final : public Material {
   std::vector<double>& stresses() { return stress_; }
 
   void setFrame(CellFrame frame) { frame_ = frame; }
-  CellFrame frame() const { return frame_; }
   /// The strain increment a point's cell receives for the step F_n -> F_n+1, in the cell's frame.
   Mat3 cellIncrement(const Mat3& Fn, const Mat3& Fn1) const;
 
