@@ -12,14 +12,6 @@
 namespace cosim::dem {
 
 namespace {
-// What the gather loop reads of one plane wall, kept together: most particles
-// touch no wall, and their test should cost a dot product and a compare.
-struct PlaneView {
-  Vec3 point, normal;
-  std::uint8_t* touch;
-  Vec3* shear;
-  Vec3* contactForce;
-};
 
 // Contacts of one thread waiting for evaluation, as structure of arrays: the
 // pair loop finds contacts row by row (branchy), then evaluates a batch of
@@ -104,12 +96,6 @@ COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p,
 }
 
 // One naive particle-triangle contact before Modifications 1 and 2.
-struct MeshCandidate {
-  std::uint32_t triangle;
-  double overlap;
-  Vec3 point, normal;
-  std::array<double, 3> bary;
-};
 }  // namespace
 
 DemSystem::DemSystem() {
@@ -170,9 +156,11 @@ void DemSystem::advance(double dt) {
   // Driven particles (coupled hybrid PD particles, scene-driven spheres) are
   // not integrated; between the states sent from outside they move with their velocity.
   const std::size_t n = particles.size();
+  if (driven) {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
-  for (std::size_t i = 0; i < n; ++i)
-    if (particles.driven[i]) particles.x[i] += dt * particles.v[i];
+    for (std::size_t i = 0; i < n; ++i)
+      if (particles.driven[i]) particles.x[i] += dt * particles.v[i];
+  }
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
     for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
@@ -399,24 +387,19 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
 
 void DemSystem::gatherForces(double dt, double closingKick) {
   Particles& p = particles;
-  const ContactLaw& law = *law_;
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
   // Sums per chunk of particles, added in chunk order: wall forces (which
   // drive servo walls), energy lost and work do not depend on the thread count.
   const std::size_t chunks = chunkCount();
   gatherPartials_.resize(chunks);
-  std::vector<PlaneView> views(nw);
-  for (std::size_t wl = 0; wl < nw; ++wl)
-    views[wl] = {planes[wl].point, planes[wl].normal, planeTouch[wl].data(), planeShear[wl].data(),
-                 planeContactForce[wl].data()};
   for (auto& m : meshes) m.contacts.clear();
   // Mesh contacts of each particle, compacted into the groups' lists afterwards.
-  std::vector<std::vector<TriangleContact>> meshOut(nm);
-  std::vector<std::uint8_t> meshCount;
+  MeshGather meshOut;
   if (nm > 0) {
-    for (auto& out : meshOut) out.resize(n * TriangleWallGroup::kSlots);
-    meshCount.assign(n * nm, 0);
+    meshOut.contacts.resize(nm);
+    for (auto& out : meshOut.contacts) out.resize(n * TriangleWallGroup::kSlots);
+    meshOut.count.assign(n * nm, 0);
   }
 #pragma omp parallel if (n > kParallelMin)
   {
@@ -424,28 +407,45 @@ void DemSystem::gatherForces(double dt, double closingKick) {
 #pragma omp for schedule(static)
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
       GatherPartial& local = gatherPartials_[chunk];
-      double chunkDissipated = 0.0, chunkWork = 0.0;  // in registers, not through `local`
+      // In registers, not through `local`: most particles touch nothing, and
+      // the loop below should cost them a few loads and stores. Walls and
+      // meshes are handled out of line for the few particles near them.
+      ChunkSums sums;
+      // The arrays as plain pointers: the stores below could alias the vectors'
+      // own members as far as the compiler knows, and it would reload them.
+      const double *weight = p.weight.data(), *mass = p.mass.data(), *invMass = p.invMass.data(),
+                   *invInertia = p.invInertia.data();
+      const std::uint8_t* driven = p.driven.data();
+      const Vec3 *fExt = p.fExt.data(), *sumF = pairSumF_.data(), *sumT = pairSumT_.data();
+      Vec3 *v = p.v.data(), *omega = p.omega.data(), *force = p.f.data(), *torque = p.torque.data();
+      const std::uint32_t *rowStart = neighbors.rowStart.data(), *revStart = neighbors.revStart.data(),
+                          *rev = neighbors.revPair.data();
+      const PairForce* pf = pairForce.data();
+      const std::uint64_t* near = planeNear.data();
+      const Vec3 g = gravity;
+      const double damping = massDamping;
+      const bool kicks = closingKick > 0.0;
+      const std::size_t end = chunkEnd(chunk);
       local.planeForce.assign(nw, {});
       local.planeTorque.assign(nw, {});
       local.meshForce.assign(nm, {});
       local.meshTorque.assign(nm, {});
-      for (std::size_t i = chunk * kRowsPerChunk; i < chunkEnd(chunk); ++i) {
-        const double w = p.weight[i];
+      for (std::size_t i = chunk * kRowsPerChunk; i < end; ++i) {
+        const double w = weight[i];
+        const bool free = driven[i] == 0;
         // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
         // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
-        Vec3 f = p.driven[i] ? p.fExt[i] : (w * p.mass[i]) * gravity + p.fExt[i];
+        Vec3 f = free ? (w * mass[i]) * g + fExt[i] : fExt[i];
         Vec3 t{};
         {
           // The row side was summed in the pair loop, for rows with pairs only
           // (a dilute step is bound by memory traffic). Pairs out of contact
           // hold zeros: summing them is cheaper than a branch.
-          const bool hasRow = neighbors.rowStart[i] != neighbors.rowStart[i + 1];
-          const Vec3 rowF = hasRow ? pairSumF_[i] : Vec3{}, rowT = hasRow ? pairSumT_[i] : Vec3{};
+          const bool hasRow = rowStart[i] != rowStart[i + 1];
+          const Vec3 rowF = hasRow ? sumF[i] : Vec3{}, rowT = hasRow ? sumT[i] : Vec3{};
           double fx = rowF.x, fy = rowF.y, fz = rowF.z;
           double tx = rowT.x, ty = rowT.y, tz = rowT.z;
-          const PairForce* pf = pairForce.data();
-          const std::uint32_t* rev = neighbors.revPair.data();
-          for (std::uint32_t r = neighbors.revStart[i]; r < neighbors.revStart[i + 1]; ++r) {
+          for (std::uint32_t r = revStart[i]; r < revStart[i + 1]; ++r) {
             const PairForce& q = pf[rev[r]];
             fx -= q.force.x; fy -= q.force.y; fz -= q.force.z;
             tx += q.torqueJ.x; ty += q.torqueJ.y; tz += q.torqueJ.z;
@@ -453,137 +453,24 @@ void DemSystem::gatherForces(double dt, double closingKick) {
           f += Vec3{fx, fy, fz};
           t = {tx, ty, tz};
         }
-        if (p.fExt[i].x != 0.0 || p.fExt[i].y != 0.0 || p.fExt[i].z != 0.0) chunkWork += dot(p.fExt[i], p.v[i]) * dt;
-        const double ri = p.radius[i];
-        const Vec3 xi = p.x[i];
-        // Only the planes marked near i; in increasing order, as over all of them.
-        for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
-          const auto wl = static_cast<std::size_t>(std::countr_zero(near));
-          if (wl >= nw) break;
-          const PlaneView& view = views[wl];
-          const double overlap = ri - dot(xi - view.point, view.normal);  // PlaneWall::distance
-          if (overlap <= 0.0) {
-            if (view.touch[i]) {  // contact lost: its history ends
-              view.touch[i] = 0;
-              view.shear[i] = {};
-            }
-            continue;
-          }
-          const PlaneWall& wall = planes[wl];
-          view.touch[i] = 1;
-          Vec3& shear = view.shear[i];
-          const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
-          const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
-          double lost = 0.0;
-          Vec3 fw = law.force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material),
-                              dt, shear, lost);
-          fw *= w;
-          view.contactForce[i] = fw;
-          chunkDissipated += w * lost;
-          chunkWork += dot(fw, wall.velocity) * dt;
-          f += fw;
-          t += cross(ci, fw);
-          local.planeForce[wl] -= fw;
-          local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
-        }
-        for (std::size_t g = 0; g < nm; ++g) {
-          TriangleWallGroup& m = meshes[g];
-          auto& slots = m.history[i];
-          cand.clear();
-          for (std::uint32_t c = m.candStart[i]; c < m.candStart[i + 1]; ++c) {
-            const auto& tri = m.triangles[m.candTri[c]];
-            const ClosestPoint cp =
-                closestPointOnTriangle(p.x[i], m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
-            const Vec3 d = p.x[i] - cp.point;
-            const double dist2 = norm2(d);
-            if (dist2 >= ri * ri || dist2 <= 0.0) continue;
-            const double dist = std::sqrt(dist2);
-            cand.push_back({m.candTri[c], ri - dist, cp.point, (1.0 / dist) * d, cp.bary});
-          }
-          if (cand.empty()) {
-            for (auto& s : slots) s = {};
-            continue;
-          }
-          // Cheng 2022 Alg. 1, Modification 1: largest overlap first; a contact with
-          // a triangle that meets a kept one at a flat or convex angle as seen from
-          // the particle (no vertex of it in front of the kept triangle's plane)
-          // is the same contact seen twice and is dropped. Concave pairs stay.
-          std::sort(cand.begin(), cand.end(), [](const MeshCandidate& a, const MeshCandidate& b) {
-            return a.overlap != b.overlap ? a.overlap > b.overlap : a.triangle < b.triangle;
-          });
-          kept.clear();
-          for (const MeshCandidate& c : cand) {
-            bool same = false;
-            for (const MeshCandidate& k : kept) {
-              const auto& tk = m.triangles[k.triangle];
-              const Vec3& a = m.vertices[tk[0]];
-              Vec3 nk = cross(m.vertices[tk[1]] - a, m.vertices[tk[2]] - a);
-              nk *= (dot(nk, p.x[i] - a) >= 0.0 ? 1.0 : -1.0) / norm(nk);  // towards the particle
-              double front = -1.0;
-              for (std::uint32_t v : m.triangles[c.triangle]) front = std::max(front, dot(m.vertices[v] - a, nk));
-              if (front <= 1e-9 * ri) same = true;
-            }
-            if (!same && kept.size() < static_cast<std::size_t>(TriangleWallGroup::kSlots)) kept.push_back(c);
-          }
-          // Contact history: the main contact carries slot 0 from triangle to
-          // triangle; further (concave) contacts keep theirs by triangle id.
-          std::array<TriangleWallGroup::Slot, TriangleWallGroup::kSlots> next{};
-          for (std::size_t c = 0; c < kept.size(); ++c) {
-            next[c].triangle = kept[c].triangle;
-            if (c == 0) {
-              next[0].shear = slots[0].shear;
-            } else {
-              for (std::size_t s = 1; s < slots.size(); ++s)
-                if (slots[s].triangle == kept[c].triangle) next[c].shear = slots[s].shear;
-            }
-          }
-          std::array<Vec3, TriangleWallGroup::kSlots> fc{};
-          std::array<double, TriangleWallGroup::kSlots> lostc{};
-          double sumF = 0.0;
-          const PairMaterial& pm = materials.pair(p.material[i], m.material);
-          for (std::size_t c = 0; c < kept.size(); ++c) {
-            const auto& tri = m.triangles[kept[c].triangle];
-            const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
-                            kept[c].bary[2] * m.velocities[tri[2]];
-            const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
-            const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
-            fc[c] = law.force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
-            sumF += norm(fc[c]);
-          }
-          slots = next;
-          for (std::size_t c = 0; c < kept.size(); ++c) {
-            // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
-            const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
-            const Vec3 fw = (w * wgt) * fc[c];
-            const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
-            const auto& tri = m.triangles[kept[c].triangle];
-            const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
-                            kept[c].bary[2] * m.velocities[tri[2]];
-            chunkDissipated += w * wgt * lostc[c];
-            chunkWork += dot(fw, vw) * dt;
-            f += fw;
-            t += cross(ci, fw);
-            local.meshForce[g] -= fw;
-            local.meshTorque[g] -= cross(kept[c].point, fw);
-            meshOut[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
-                                                             kept[c].bary, -fw};
-          }
-          meshCount[i * nm + g] = static_cast<std::uint8_t>(kept.size());
-        }
-        if (massDamping > 0.0 && !p.driven[i]) {
+        // Work of the external force (zero for most particles: adding it is cheaper than a test).
+        sums.work += dot(fExt[i], v[i]) * dt;
+        if (near[i] != 0) addPlaneContacts(i, w, dt, local, sums, f, t);
+        for (std::size_t gm = 0; gm < nm; ++gm) addMeshContacts(i, gm, w, dt, local, sums, meshOut, cand, kept, f, t);
+        if (damping > 0.0 && free) {
           // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
-          const Vec3 fd = (-massDamping * w * p.mass[i]) * p.v[i];
-          const Vec3 td = (-massDamping * w * p.inertia[i]) * p.omega[i];
-          chunkDissipated -= (dot(fd, p.v[i]) + dot(td, p.omega[i])) * dt;
+          const Vec3 fd = (-damping * w * mass[i]) * v[i];
+          const Vec3 td = (-damping * w * p.inertia[i]) * omega[i];
+          sums.dissipated -= (dot(fd, v[i]) + dot(td, omega[i])) * dt;
           f += fd;
           t += td;
         }
-        p.f[i] = f;
-        p.torque[i] = t;
-        if (closingKick > 0.0 && !p.driven[i]) kick(p, i, closingKick);  // Integrator::fusedKick
+        force[i] = f;
+        torque[i] = t;
+        if (kicks && free) kick(w, invMass[i], invInertia[i], f, t, closingKick, v[i], omega[i]);  // Integrator::fusedKick
       }
-      local.dissipated = chunkDissipated;
-      local.work = chunkWork;
+      local.dissipated = sums.dissipated;
+      local.work = sums.work;
     }
   }
   for (auto& w : planes) w.force = w.torque = {};
@@ -602,8 +489,134 @@ void DemSystem::gatherForces(double dt, double closingKick) {
   }
   for (std::size_t g = 0; g < nm; ++g)
     for (std::size_t i = 0; i < n; ++i)
-      for (std::size_t c = 0; c < meshCount[i * nm + g]; ++c)
-        meshes[g].contacts.push_back(meshOut[g][i * TriangleWallGroup::kSlots + c]);
+      for (std::size_t c = 0; c < meshOut.count[i * nm + g]; ++c)
+        meshes[g].contacts.push_back(meshOut.contacts[g][i * TriangleWallGroup::kSlots + c]);
+}
+
+void DemSystem::addPlaneContacts(std::size_t i, double w, double dt, GatherPartial& local, ChunkSums& sums, Vec3& f,
+                                 Vec3& t) {
+  Particles& p = particles;
+  const std::size_t nw = planes.size();
+  const double ri = p.radius[i];
+  const Vec3 xi = p.x[i];
+  // Only the planes marked near i; in increasing order, as over all of them.
+  for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
+    const auto wl = static_cast<std::size_t>(std::countr_zero(near));
+    if (wl >= nw) break;
+    const PlaneWall& wall = planes[wl];
+    const double overlap = ri - wall.distance(xi);
+    std::uint8_t& touch = planeTouch[wl][i];
+    Vec3& shear = planeShear[wl][i];
+    if (overlap <= 0.0) {
+      if (touch) {  // contact lost: its history ends
+        touch = 0;
+        shear = {};
+      }
+      continue;
+    }
+    touch = 1;
+    const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
+    const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
+    double lost = 0.0;
+    Vec3 fw = law_->force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material), dt,
+                          shear, lost);
+    fw *= w;
+    planeContactForce[wl][i] = fw;
+    sums.dissipated += w * lost;
+    sums.work += dot(fw, wall.velocity) * dt;
+    f += fw;
+    t += cross(ci, fw);
+    local.planeForce[wl] -= fw;
+    local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
+  }
+}
+
+void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double dt, GatherPartial& local,
+                                ChunkSums& sums, MeshGather& out, std::vector<MeshCandidate>& cand,
+                                std::vector<MeshCandidate>& kept, Vec3& f, Vec3& t) {
+  Particles& p = particles;
+  TriangleWallGroup& m = meshes[g];
+  const double ri = p.radius[i];
+  auto& slots = m.history[i];
+  cand.clear();
+  for (std::uint32_t c = m.candStart[i]; c < m.candStart[i + 1]; ++c) {
+    const auto& tri = m.triangles[m.candTri[c]];
+    const ClosestPoint cp = closestPointOnTriangle(p.x[i], m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
+    const Vec3 d = p.x[i] - cp.point;
+    const double dist2 = norm2(d);
+    if (dist2 >= ri * ri || dist2 <= 0.0) continue;
+    const double dist = std::sqrt(dist2);
+    cand.push_back({m.candTri[c], ri - dist, cp.point, (1.0 / dist) * d, cp.bary});
+  }
+  if (cand.empty()) {
+    for (auto& s : slots) s = {};
+    return;
+  }
+  // Cheng 2022 Alg. 1, Modification 1: largest overlap first; a contact with
+  // a triangle that meets a kept one at a flat or convex angle as seen from
+  // the particle (no vertex of it in front of the kept triangle's plane)
+  // is the same contact seen twice and is dropped. Concave pairs stay.
+  std::sort(cand.begin(), cand.end(), [](const MeshCandidate& a, const MeshCandidate& b) {
+    return a.overlap != b.overlap ? a.overlap > b.overlap : a.triangle < b.triangle;
+  });
+  kept.clear();
+  for (const MeshCandidate& c : cand) {
+    bool same = false;
+    for (const MeshCandidate& k : kept) {
+      const auto& tk = m.triangles[k.triangle];
+      const Vec3& a = m.vertices[tk[0]];
+      Vec3 nk = cross(m.vertices[tk[1]] - a, m.vertices[tk[2]] - a);
+      nk *= (dot(nk, p.x[i] - a) >= 0.0 ? 1.0 : -1.0) / norm(nk);  // towards the particle
+      double front = -1.0;
+      for (std::uint32_t v : m.triangles[c.triangle]) front = std::max(front, dot(m.vertices[v] - a, nk));
+      if (front <= 1e-9 * ri) same = true;
+    }
+    if (!same && kept.size() < static_cast<std::size_t>(TriangleWallGroup::kSlots)) kept.push_back(c);
+  }
+  // Contact history: the main contact carries slot 0 from triangle to
+  // triangle; further (concave) contacts keep theirs by triangle id.
+  std::array<TriangleWallGroup::Slot, TriangleWallGroup::kSlots> next{};
+  for (std::size_t c = 0; c < kept.size(); ++c) {
+    next[c].triangle = kept[c].triangle;
+    if (c == 0) {
+      next[0].shear = slots[0].shear;
+    } else {
+      for (std::size_t s = 1; s < slots.size(); ++s)
+        if (slots[s].triangle == kept[c].triangle) next[c].shear = slots[s].shear;
+    }
+  }
+  std::array<Vec3, TriangleWallGroup::kSlots> fc{};
+  std::array<double, TriangleWallGroup::kSlots> lostc{};
+  double sumF = 0.0;
+  const PairMaterial& pm = materials.pair(p.material[i], m.material);
+  for (std::size_t c = 0; c < kept.size(); ++c) {
+    const auto& tri = m.triangles[kept[c].triangle];
+    const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                    kept[c].bary[2] * m.velocities[tri[2]];
+    const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+    const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
+    fc[c] = law_->force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
+    sumF += norm(fc[c]);
+  }
+  slots = next;
+  for (std::size_t c = 0; c < kept.size(); ++c) {
+    // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
+    const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
+    const Vec3 fw = (w * wgt) * fc[c];
+    const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+    const auto& tri = m.triangles[kept[c].triangle];
+    const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
+                    kept[c].bary[2] * m.velocities[tri[2]];
+    sums.dissipated += w * wgt * lostc[c];
+    sums.work += dot(fw, vw) * dt;
+    f += fw;
+    t += cross(ci, fw);
+    local.meshForce[g] -= fw;
+    local.meshTorque[g] -= cross(kept[c].point, fw);
+    out.contacts[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
+                                                     kept[c].bary, -fw};
+  }
+  out.count[i * meshes.size() + g] = static_cast<std::uint8_t>(kept.size());
 }
 
 }  // namespace cosim::dem

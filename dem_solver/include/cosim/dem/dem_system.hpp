@@ -123,6 +123,29 @@ class DemSystem {
     std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
   };
   std::vector<GatherPartial> gatherPartials_;
+  /// Energy lost and work done in one chunk of the gather, summed in particle order.
+  struct ChunkSums {
+    double dissipated = 0.0, work = 0.0;
+  };
+  /// A triangle within reach of a particle: overlap, closest point, unit normal towards the particle.
+  struct MeshCandidate {
+    std::uint32_t triangle;
+    double overlap;
+    Vec3 point, normal;
+    std::array<double, 3> bary;
+  };
+  /// Mesh contacts of each particle, kSlots per particle and group, and how many are used.
+  struct MeshGather {
+    std::vector<std::vector<TriangleContact>> contacts;  // [group][particle * kSlots + slot]
+    std::vector<std::uint8_t> count;                     // [particle * groups + group]
+  };
+  /// Forces of the planes marked near particle i on it (added to f and t, scaled by its weight w),
+  /// with their reactions in `local` and energy lost and work in `sums`.
+  void addPlaneContacts(std::size_t i, double w, double dt, GatherPartial& local, ChunkSums& sums, Vec3& f, Vec3& t);
+  /// The same for triangle group g (Cheng 2022 Alg. 1), recording the contacts in `out`.
+  void addMeshContacts(std::size_t i, std::size_t g, double w, double dt, GatherPartial& local, ChunkSums& sums,
+                       MeshGather& out, std::vector<MeshCandidate>& cand, std::vector<MeshCandidate>& kept, Vec3& f,
+                       Vec3& t);
   std::unique_ptr<ContactLaw> law_;
   std::unique_ptr<Integrator> integrator_;
   std::array<std::string, 3> lawNames_;

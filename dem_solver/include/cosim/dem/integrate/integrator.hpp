@@ -25,18 +25,27 @@ class Integrator {
 
 using IntegratorRegistry = Registry<Integrator>;
 
-/// Kick of particle i over dtKick: v += dtKick f / (w m), omega += dtKick tau / (w I).
-inline void kick(Particles& p, std::size_t i, double dtKick) {
-  const double w = p.weight[i];
+/// Kick over dtKick of a sphere of weight w, inverse mass and inverse inertia
+/// under force f and torque tau: v += dtKick f / (w m), omega += dtKick tau / (w I).
+inline void kick(double w, double invMass, double invInertia, const Vec3& f, const Vec3& tau, double dtKick, Vec3& v,
+                 Vec3& omega) {
   const double h = w == 1.0 ? dtKick : dtKick / w;  // skip the division outside coupling zones
-  p.v[i] += (h * p.invMass[i]) * p.f[i];
-  p.omega[i] += (h * p.invInertia[i]) * p.torque[i];
+  v += (h * invMass) * f;
+  omega += (h * invInertia) * tau;
+}
+
+/// Kick of particle i over dtKick with its stored force and torque.
+inline void kick(Particles& p, std::size_t i, double dtKick) {
+  kick(p.weight[i], p.invMass[i], p.invInertia[i], p.f[i], p.torque[i], dtKick, p.v[i], p.omega[i]);
 }
 
 /// Drift of particle i over dt: position moves with v, orientation turns by omega dt.
 inline void drift(Particles& p, std::size_t i, double dt) {
   p.x[i] += dt * p.v[i];
-  p.q[i] = rotated(p.q[i], dt * p.omega[i]);
+  // Most spheres of a dilute flow have never turned (no contact yet): their
+  // orientations are neither read nor written (rotated() would return q).
+  const Vec3 phi = dt * p.omega[i];
+  if (norm2(phi) != 0.0) p.q[i] = rotated(p.q[i], phi);
 }
 
 }  // namespace cosim::dem
