@@ -7,6 +7,7 @@
 //   dem_settling_bench [--n 8000|64000] [--steps S] [--settle S0] [--threads T] [--scene FILE]
 //                      [--state FILE]   (reuse a settled state: read it if present, else write it)
 //                      [--data FILE]    (write the initial state as a LAMMPS data file and stop)
+//                      [--phases on]    (also print the timed steps' time per phase, ns per particle-step)
 //
 // The scene's lattice is resized to n = side^3 spheres (the box grows with it);
 // --settle runs S0 untimed steps first so the timed steps see a dense packing.
@@ -65,6 +66,7 @@ static void writeLammpsData(const DemSystem& s, double box, const std::string& f
 int main(int argc, char** argv) {
   long n = 8000, steps = 2000, settle = 0;
   int threads = 0;
+  bool phases = false;
   std::string scene = COSIM_DEM_CONFIG_DIR "/settling.yaml", state, data;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], v = argv[a + 1];
@@ -75,8 +77,9 @@ int main(int argc, char** argv) {
     else if (k == "--scene") scene = v;
     else if (k == "--state") state = v;
     else if (k == "--data") data = v;
+    else if (k == "--phases" && (v == "on" || v == "off")) phases = v == "on";
     else {
-      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+      std::fprintf(stderr, "unknown option or value: %s %s\n", k.c_str(), v.c_str());
       return 2;
     }
   }
@@ -129,6 +132,7 @@ int main(int argc, char** argv) {
   const auto builds0 = s.neighbors.builds;
   const double cpu0 = cpuSeconds();
   const auto t0 = std::chrono::steady_clock::now();
+  s.timing = phases;
   for (long k = 0; k < steps; ++k) s.advance(dt);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu = cpuSeconds() - cpu0;
@@ -142,5 +146,11 @@ int main(int argc, char** argv) {
               "neighbour pairs %zu, rebuilds %llu\n",
               s.time, e.kinetic(), coordinationNumber(s), top, s.neighbors.pairs(),
               static_cast<unsigned long long>(s.neighbors.builds - builds0));
+  if (phases) {
+    const DemSystem::PhaseTimes& t = s.phaseTimes;
+    const double ns = 1e9 / static_cast<double>(t.particleSteps);
+    std::printf("phases [ns per particle-step]: open %.2f, neighbours %.2f, pairs %.2f, gather %.2f, close %.2f\n",
+                t.open * ns, t.neighbors * ns, t.pairs * ns, t.gather * ns, t.close * ns);
+  }
   return 0;
 }

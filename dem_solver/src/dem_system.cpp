@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -140,7 +141,22 @@ void DemSystem::initialize() {
   computeForces(0.0);
 }
 
+namespace {
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+void DemSystem::lap(double PhaseTimes::*phase) {
+  if (!timedStep_) return;
+  const double now = steadySeconds();
+  phaseTimes.*phase += now - lapStart_;
+  lapStart_ = now;
+}
+
 void DemSystem::advance(double dt) {
+  timedStep_ = timing;
+  if (timing) lapStart_ = steadySeconds();
   // Most scenes drive no particle: one scan of the flags decides whether to sum their power.
   const bool driven =
       !particles.driven.empty() && std::memchr(particles.driven.data(), 1, particles.driven.size()) != nullptr;
@@ -164,6 +180,7 @@ void DemSystem::advance(double dt) {
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
     for (std::size_t v = 0; v < m.vertices.size(); ++v) m.vertices[v] += dt * m.velocities[v];
+  lap(&PhaseTimes::open);
   // The closing kick inside the force loop, unless bonds add forces after it.
   const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
   computeForces(dt, fused * dt);
@@ -174,6 +191,9 @@ void DemSystem::advance(double dt) {
   if (driven) addDriveWork(-0.5 * (powerBefore + drivenPower()) * dt);
   time += dt;
   ++step;
+  lap(&PhaseTimes::close);
+  if (timedStep_) phaseTimes.particleSteps += n;
+  timedStep_ = false;
 }
 
 double DemSystem::drivenPower() const {
@@ -240,8 +260,11 @@ void DemSystem::computeForces(double dt, double closingKick) {
       m.markBuilt();
     }
   }
+  lap(&PhaseTimes::neighbors);
   pairForces(dt);
+  lap(&PhaseTimes::pairs);
   gatherForces(dt, closingKick);
+  lap(&PhaseTimes::gather);
   if (bonds.size() > 0) bonds.addForces(particles, cell, particles.f);
 }
 

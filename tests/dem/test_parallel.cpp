@@ -4,6 +4,7 @@
 // under a servo lid, which moves with the summed wall force).
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -77,6 +78,30 @@ TEST(DemParallel, OneAndTwoThreadsGiveIdenticalBits) {
 #else
   GTEST_SKIP() << "built without OpenMP";
 #endif
+}
+
+// Phase timing is bookkeeping only: the same bits with it on, every phase of a
+// step with contacts takes time, and the phases fit inside the steps' wall time.
+TEST(DemParallel, PhaseTimingChangesNothingAndAddsUp) {
+  DemSystem plain = pile(), timed = pile();
+  timed.timing = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < 50; ++k) timed.advance(1e-5);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (int k = 0; k < 50; ++k) plain.advance(1e-5);
+  const Particles &a = plain.particles, &b = timed.particles;
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.size() * sizeof(Vec3)), 0);
+  const DemSystem::PhaseTimes& t = timed.phaseTimes;
+  EXPECT_EQ(t.particleSteps, 50u * b.size());
+  EXPECT_GT(t.open, 0.0);
+  EXPECT_GT(t.neighbors, 0.0);
+  EXPECT_GT(t.pairs, 0.0);
+  EXPECT_GT(t.gather, 0.0);
+  EXPECT_GE(t.close, 0.0);
+  EXPECT_LE(t.open + t.neighbors + t.pairs + t.gather + t.close, wall);
+  EXPECT_EQ(plain.phaseTimes.particleSteps, 0u);  // off: nothing is summed
+  EXPECT_EQ(plain.phaseTimes.pairs, 0.0);
 }
 
 }  // namespace

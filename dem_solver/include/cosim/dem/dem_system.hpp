@@ -45,6 +45,18 @@ class DemSystem {
   double dissipated = 0.0;      // energy lost in dashpots and sliding [J]
   double externalWork = 0.0;    // work of moving walls, external forces and drives [J]
   double driveWork = 0.0;       // its share done by prescribed motion (driven particles, drives, hybrid PD particles) [J]
+  /// Wall time of each phase of advance(), summed over the steps taken while
+  /// `timing` is on (the DEM share of LAMMPS's Pair/Neigh/Modify breakdown).
+  struct PhaseTimes {
+    double open = 0.0;       // opening kick and drift, driven particles, moving walls [s]
+    double neighbors = 0.0;  // rebuild test, neighbour list, wall candidates [s]
+    double pairs = 0.0;      // pair loop: contact detection and pair forces [s]
+    double gather = 0.0;     // per-particle force sums, wall contacts, closing kick [s]
+    double close = 0.0;      // bonds, closing kick (when not fused), drive work [s]
+    std::uint64_t particleSteps = 0;
+  };
+  bool timing = false;  // off: advance() reads no clock
+  PhaseTimes phaseTimes;
   // Pairs kept out of the contact law besides bonded ones: hybrid PD particles
   // of one family (Hartmann 2022 Sec. 3.1). Applied by initialize().
   std::vector<std::pair<std::uint32_t, std::uint32_t>> excludedPairs;
@@ -105,6 +117,10 @@ class DemSystem {
   void addDriveWork(double work);
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
+  /// Adds the time since the last lap to `phase` while a timed step runs.
+  void lap(double PhaseTimes::*phase);
+  bool timedStep_ = false;
+  double lapStart_ = 0.0;
   /// Plane candidates of each particle, with the neighbour list (see planeNear).
   void markPlaneCandidates();
   /// True when a plane moved along its normal by more than limit since the candidates were marked.
