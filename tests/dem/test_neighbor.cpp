@@ -1,7 +1,10 @@
 // The linked-cell Verlet list against brute force, on polydisperse sets.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <set>
 #include <utility>
 
@@ -89,6 +92,30 @@ TEST(DemNeighbor, RebuildKeepsHistoryOfSurvivingPairs) {
   EXPECT_GT(kept, 0u);
   EXPECT_GT(fresh, 0u);
   EXPECT_EQ(listed(nl, p.size()), bruteForce(p, nl.skin));
+}
+
+TEST(DemNeighbor, AnUnbinnableCloudStopsWithTheParticlesNotAnEndlessLoop) {
+  // Two finite positions whose extent overflows to inf, and a NaN coordinate:
+  // both once made the cell count NaN and the sizing loop endless.
+  Particles wide;
+  wide.add({-1.5e308, 0, 0}, 0.001, 1000.0);
+  wide.add({1.5e308, 0, 0}, 0.001, 1000.0);
+  NeighborList nl;
+  nl.skin = 1e-4;
+  try {
+    nl.build(wide);
+    FAIL() << "binned an infinite extent";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("particles 0 and 1 lie at x = "), std::string::npos) << e.what();
+  }
+  Particles nan = randomCloud(20, 0.001, 0.002, 0.05, 3);
+  nan.x[7].z = std::nan("");
+  try {
+    nl.build(nan);
+    FAIL() << "binned a NaN coordinate";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("particle 7: non-finite z coordinate"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

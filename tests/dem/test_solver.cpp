@@ -234,6 +234,23 @@ TEST(DemSolver, BadInputNamesFileKeyLineParticle) {
   e = errorOf(scene("      particles: [{file: {path: " + (dir / "neg.csv").string() + "}}]\n"));
   EXPECT_NE(e.find("neg.csv:2"), std::string::npos) << e;
   EXPECT_NE(e.find("radius"), std::string::npos) << e;
+  // A mistyped number on the first line is an error, not a header line that vanishes.
+  std::ofstream(dir / "typo.csv") << "0 0 0 O.1\n1 0 0 0.1\n";
+  e = errorOf(scene("      particles: [{file: {path: " + (dir / "typo.csv").string() + "}}]\n"));
+  EXPECT_NE(e.find("typo.csv:1: column 4: 'O.1' is not a number"), std::string::npos) << e;
+  // A radius whose mass overflows names the line and says so.
+  std::ofstream(dir / "huge.csv") << "0 0 0 1e300\n";
+  e = errorOf(scene("      particles: [{file: {path: " + (dir / "huge.csv").string() + "}}]\n"));
+  EXPECT_NE(e.find("huge.csv:1: a particle of radius 1e+300 m"), std::string::npos) << e;
+  // An HDF5 /positions stored 3 x N (the right count, the wrong layout) is refused.
+  {
+    auto f = io::H5File::create(dir / "transposed.h5");
+    const std::vector<double> x{0, 1, 0, 0, 0, 0}, r{0.1, 0.1};
+    f.writeArray("/positions", x, 2);
+    f.writeArray("/radii", r, 1);
+  }
+  e = errorOf(scene("      particles: [{file: {path: " + (dir / "transposed.h5").string() + "}}]\n"));
+  EXPECT_NE(e.find("transposed.h5: /positions has shape (3 x 2), need 2 x 3"), std::string::npos) << e;
   // A good CSV file and an HDF5 file load.
   std::ofstream(dir / "ok.csv") << "# x y z r vx vy vz\n0 0 0 0.1 1 0 0\n1 0 0 0.1 0 0 0\n";
   {

@@ -473,6 +473,32 @@ TEST_F(CouplerRun, ResumeRefusesAChangedScene) {
   EXPECT_NE(f.err.find("differs from the scene the run"), std::string::npos) << f.err;
 }
 
+TEST_F(CouplerRun, ResumeRefusesACorruptCheckpointState) {
+  SceneOptions o;
+  o.outputExtra = "checkpoint_interval: 10";
+  auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  fs::path newest;
+  std::uint64_t most = 0;
+  for (const auto& e : fs::directory_iterator(runDir() / "checkpoints")) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("exchange-", 0) == 0 && std::stoull(n.substr(9)) >= most) most = std::stoull(n.substr(9)), newest = e.path();
+  }
+  ASSERT_FALSE(newest.empty());
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"{}", "needs an unsigned 'exchange'"},
+      {"{\"exchange\": 1000000, \"time_hex\": \"0x1p-3\"}", "'exchange' is 1000000 in the directory of exchange"},
+      {"{\"exchange\": " + std::to_string(most) + ", \"time_hex\": \"nan\"}", "not a finite time"},
+      {"{\"exchange\": ", "corrupt checkpoint state"}};
+  for (const auto& [state, expected] : cases) {
+    std::ofstream(newest / "coupler_state.json") << state;
+    f = runCoupler(o, {"--resume"});
+    EXPECT_EQ(f.code, 3) << state << "\n" << f.err;
+    EXPECT_NE(f.err.find(newest.string() + "/coupler_state.json: corrupt checkpoint state"), std::string::npos) << f.err;
+    EXPECT_NE(f.err.find(expected), std::string::npos) << f.err;
+  }
+}
+
 }  // namespace
 }  // namespace cosim::testing
 

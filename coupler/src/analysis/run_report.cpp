@@ -32,7 +32,8 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
                           {"critical_dt_s", p.criticalDt}, {"critical_dt_min_s", p.minCriticalDt},
                           {"cpus", p.cpus}});
   if (host)
-    j["host"] = {{"cpus", host->cpus}, {"busy_cpu_s", host->busyS}, {"steal_cpu_s", host->stealS},
+    j["host"] = {{"cpus", host->cpus}, {"busy_cpu_s", host->busyS}, {"idle_cpu_s", host->idleS},
+                 {"steal_cpu_s", host->stealS},
                  {"steal_share", stealShare()}};
   j["final_energies_J"] = finalEnergies;
   j["coupling_overhead_share"] = couplingOverheadShare();
@@ -68,7 +69,7 @@ std::string RunReport::text() const {
     << simulatedTime << " s of " << endTime << " s\n" << std::setprecision(3);
   s << "  wall time     " << wallS << " s (startup " << startupS << " s, exchange loop " << loopS << " s)\n";
   if (host)
-    s << "  host          " << host->cpus << " CPUs busy " << host->busyS << " s, steal " << host->stealS << " s ("
+    s << "  host          " << host->cpus << " CPUs busy " << host->busyS << " s, idle " << host->idleS << " s, steal " << host->stealS << " s ("
       << 100.0 * stealShare() << " % of their time)\n";
   const double loop = loopS > 0 ? loopS : 1.0;
   s << "  coupler       mapping " << mappingS << " s (" << 100.0 * mappingS / loop << " %), output " << outputS

@@ -1,6 +1,8 @@
 #include "cosim/coupler/run/checkpoint_store.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -18,6 +20,45 @@ std::string name(std::uint64_t exchange) {
   std::ostringstream s;
   s << kPrefix << exchange;
   return s.str();
+}
+
+/// The exchange in a committed checkpoint's directory name ("exchange-N"), if it is one.
+std::optional<std::uint64_t> committedExchange(const fs::path& dir) {
+  const std::string n = dir.filename().string(), digits = n.substr(std::min(n.size(), std::string(kPrefix).size()));
+  if (n.rfind(kPrefix, 0) != 0 || digits.empty() || digits.size() > 19 ||
+      !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  return std::stoull(digits);
+}
+
+/// The state file of a committed checkpoint, checked against its directory:
+/// a corrupt one stops the resume with its path rather than resuming at a
+/// wrong exchange or time.
+CheckpointStore::Point readState(const fs::path& dir, std::uint64_t exchange) {
+  const fs::path statePath = dir / kState;
+  const auto fail = [&](const std::string& what) -> CheckpointStore::Point {
+    throw std::runtime_error(statePath.string() + ": corrupt checkpoint state: " + what + " (remove " + dir.string() +
+                             " to resume from an earlier checkpoint)");
+  };
+  std::ifstream in(statePath);
+  nlohmann::json state;
+  try {
+    in >> state;
+  } catch (const nlohmann::json::exception& e) {
+    return fail(e.what());
+  }
+  const auto ex = state.find("exchange");
+  const auto hex = state.find("time_hex");
+  if (!state.is_object() || ex == state.end() || !ex->is_number_unsigned() || hex == state.end() || !hex->is_string())
+    return fail("needs an unsigned 'exchange' and a string 'time_hex'");
+  if (ex->get<std::uint64_t>() != exchange)
+    return fail("'exchange' is " + ex->dump() + " in the directory of exchange " + std::to_string(exchange));
+  const std::string text = hex->get<std::string>();
+  char* end = nullptr;
+  const double time = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(time) || time < 0.0)
+    return fail("'time_hex' is '" + text + "', not a finite time >= 0");
+  return {exchange, time, dir};
 }
 }  // namespace
 
@@ -48,11 +89,8 @@ CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double ti
   fs::remove_all(final);
   fs::rename(partial, final);
   std::vector<std::pair<std::uint64_t, fs::path>> all;
-  for (const auto& e : fs::directory_iterator(root_)) {
-    const auto n = e.path().filename().string();
-    if (n.rfind(kPrefix, 0) == 0 && n.find(".partial") == std::string::npos)
-      all.emplace_back(std::stoull(n.substr(std::string(kPrefix).size())), e.path());
-  }
+  for (const auto& e : fs::directory_iterator(root_))
+    if (const auto committed = committedExchange(e.path())) all.emplace_back(*committed, e.path());
   std::sort(all.begin(), all.end());
   for (std::size_t i = 0; i + static_cast<std::size_t>(keep_) < all.size(); ++i) fs::remove_all(all[i].second);
   return Point{exchange, time, final};
@@ -61,20 +99,14 @@ CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double ti
 std::optional<CheckpointStore::Point> CheckpointStore::latest() const {
   std::optional<Point> best;
   if (!fs::exists(root_)) return best;
+  // Only committed directories count: a ".partial" one was cut off while written.
+  std::optional<std::pair<std::uint64_t, fs::path>> newest;
   for (const auto& e : fs::directory_iterator(root_)) {
-    const auto statePath = e.path() / kState;
-    if (!fs::exists(statePath)) continue;
-    std::ifstream in(statePath);
-    nlohmann::json state;
-    try {
-      in >> state;
-    } catch (const nlohmann::json::exception&) {
-      continue;  // not complete: skip it
-    }
-    Point p{state.at("exchange").get<std::uint64_t>(),
-            std::strtod(state.at("time_hex").get<std::string>().c_str(), nullptr), e.path()};
-    if (!best || p.exchange > best->exchange) best = p;
+    const auto exchange = committedExchange(e.path());
+    if (!exchange || !fs::exists(e.path() / kState)) continue;
+    if (!newest || *exchange > newest->first) newest = {*exchange, e.path()};
   }
+  if (newest) best = readState(newest->second, newest->first);
   return best;
 }
 

@@ -186,7 +186,11 @@ class CouplerRun final : public ExchangeDriver {
   }
 
   void prepareResume() {
-    resumeFrom_ = checkpoints_.latest();
+    try {
+      resumeFrom_ = checkpoints_.latest();
+    } catch (const std::runtime_error& e) {
+      throw Refused(e.what());  // a corrupt state: nothing has started yet
+    }
     if (!resumeFrom_)
       throw Refused("nothing to resume in " + runDir_.string() + ": no complete checkpoint (set output.checkpoint_interval)");
     if (CheckpointStore::sceneText(*resumeFrom_) != scene_.text)

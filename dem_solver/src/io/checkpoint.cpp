@@ -1,6 +1,8 @@
 #include "cosim/dem/io/checkpoint.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
@@ -43,7 +45,15 @@ class Writer {
 
 class Reader {
  public:
-  Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {}
+  Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {
+    // The bytes left bound every count read below: a corrupt count must not
+    // allocate memory the file cannot fill.
+    if (start_ != std::istream::pos_type(-1) && in_.seekg(0, std::ios::end)) {
+      left_ = static_cast<std::uint64_t>(in_.tellg() - start_);
+      in_.seekg(start_);
+    }
+    in_.clear();
+  }
   template <class T>
   T pod() {
     T v{};
@@ -51,10 +61,17 @@ class Reader {
     check();
     return v;
   }
+  /// A count of records of at least `bytesEach` bytes that must still fit in the file.
+  std::uint64_t count(std::uint64_t bytesEach, const char* what) {
+    const auto n = pod<std::uint64_t>();
+    if (n > left() / bytesEach)
+      throw std::runtime_error(path_ + ": corrupt checkpoint (" + std::to_string(n) + " " + what +
+                               ", more than the file holds)");
+    return n;
+  }
   template <class T>
   void vec(std::vector<T>& v) {
-    const auto n = pod<std::uint64_t>();
-    if (n > (std::uint64_t{1} << 40) / sizeof(T)) throw std::runtime_error(path_ + ": corrupt checkpoint (array size)");
+    const auto n = count(sizeof(T), "array elements");
     v.resize(n);
     in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T)));
     check();
@@ -72,8 +89,16 @@ class Reader {
   void check() {
     if (!in_) throw std::runtime_error(path_ + ": truncated checkpoint");
   }
+  std::uint64_t left() {
+    const auto at = in_.tellg();
+    if (at == std::istream::pos_type(-1) || left_ == kUnknown) return kUnknown;
+    return left_ - std::min<std::uint64_t>(left_, static_cast<std::uint64_t>(at - start_));
+  }
+  static constexpr std::uint64_t kUnknown = std::uint64_t{1} << 40;
   std::istream& in_;
   std::string path_;
+  std::istream::pos_type start_ = in_.tellg();
+  std::uint64_t left_ = kUnknown;
 };
 
 template <class IO, class P>
@@ -86,6 +111,87 @@ void particleArrays(IO& io, P& p) {
 template <class IO, class N>
 void neighborArrays(IO& io, N& n) {
   io(n.rowStart); io(n.partner); io(n.shear); io(n.touching); io(n.revStart); io(n.revPair); io(n.xRef);
+}
+
+/// Throws "PATH: inconsistent checkpoint (WHAT)" unless `ok`.
+void require(bool ok, const std::string& path, const std::string& what) {
+  if (!ok) throw std::runtime_error(path + ": inconsistent checkpoint (" + what + ")");
+}
+
+/// A compressed-row index: `start` has rows + 1 ascending entries from 0 to
+/// `items`, or is empty when `optional` (the structure is not in use).
+void requireRows(const std::vector<std::uint32_t>& start, std::size_t rows, std::size_t items, bool optional,
+                 const std::string& path, const std::string& what) {
+  if (optional && start.empty() && items == 0) return;
+  require(start.size() == rows + 1 && start.front() == 0 && start.back() == items &&
+              std::is_sorted(start.begin(), start.end()),
+          path, what + " rows do not match");
+}
+
+template <class T>
+void requireBelow(const std::vector<T>& ids, std::size_t bound, const std::string& path, const std::string& what) {
+  for (const T id : ids) require(static_cast<std::size_t>(id) < bound, path, what + " out of range");
+}
+
+/// Every length and index a step relies on, checked before the state is used:
+/// a corrupt file must stop with its name, not read out of bounds.
+void checkRestored(const DemSystem& s, const std::string& path) {
+  const Particles& p = s.particles;
+  const std::size_t n = p.size();
+  for (const std::size_t len : {p.x.size(), p.v.size(), p.omega.size(), p.q.size(), p.f.size(), p.torque.size(), p.fExt.size(),
+                                p.radius.size(), p.mass.size(), p.invMass.size(), p.inertia.size(),
+                                p.invInertia.size(), p.weight.size(), p.material.size(), p.driven.size(),
+                                p.id.size()})
+    require(len == n, path, "particle arrays of different lengths");
+  require(std::isfinite(s.time), path, "non-finite time");
+  requireBelow(p.material, s.materials.size(), path, "particle material");
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string who = "particle " + std::to_string(p.id[i]) + ": ";
+    require(std::isfinite(norm2(p.x[i])) && std::isfinite(norm2(p.v[i])) && std::isfinite(norm2(p.omega[i])), path,
+            who + "non-finite position or velocity");
+    require(p.radius[i] > 0.0 && std::isfinite(p.radius[i]), path, who + "radius not positive and finite");
+    require(p.mass[i] > 0.0 && std::isfinite(p.mass[i]) && p.inertia[i] > 0.0 && std::isfinite(p.inertia[i]), path,
+            who + "mass or inertia not positive and finite");
+  }
+  const NeighborList& nl = s.neighbors;
+  const std::size_t pairs = nl.partner.size();
+  requireRows(nl.rowStart, n, pairs, false, path, "neighbour list");
+  requireBelow(nl.partner, n, path, "neighbour partner");
+  require(nl.shear.size() == pairs && nl.touching.size() == pairs && s.pairForce.size() == pairs, path,
+          "pair arrays do not match the neighbour list");
+  require(nl.image.empty() || nl.image.size() == pairs, path, "periodic images do not match the neighbour list");
+  requireRows(nl.revStart, n, nl.revPair.size(), false, path, "reverse neighbour list");
+  requireBelow(nl.revPair, pairs, path, "reverse neighbour pair");
+  require(nl.xRef.size() == n, path, "reference positions do not match the particles");
+  requireRows(nl.exclStart, n, nl.exclPartner.size(), true, path, "excluded pairs");
+  requireBelow(nl.exclPartner, n, path, "excluded partner");
+  const BondedSprings& b = s.bonds;
+  require(b.second.size() == b.first.size() && b.rest.size() == b.first.size(), path, "bond arrays of different lengths");
+  requireBelow(b.first, n, path, "bond end");
+  requireBelow(b.second, n, path, "bond end");
+  requireRows(b.byParticleStart, n, b.byParticle.size(), true, path, "bonds per particle");
+  requireBelow(b.byParticle, b.first.size(), path, "bond id");
+  require(s.planeNear.size() == n, path, "plane candidates do not match the particles");
+  for (std::size_t k = 0; k < s.planes.size(); ++k) {
+    require(s.planes[k].material < s.materials.size(), path, "plane '" + s.planes[k].name + "' material out of range");
+    require(s.planeShear[k].size() == n && s.planeTouch[k].size() == n && s.planeContactForce[k].size() == n, path,
+            "plane '" + s.planes[k].name + "' contact arrays do not match the particles");
+  }
+  for (const TriangleWallGroup& m : s.meshes) {
+    const std::string who = "triangle wall group '" + m.name + "' ";
+    require(m.material < s.materials.size(), path, who + "material out of range");
+    require(m.velocities.size() == m.vertices.size() && m.verticesAtBuild().size() == m.vertices.size(), path,
+            who + "vertex arrays of different lengths");
+    for (const auto& tri : m.triangles)
+      for (const std::uint32_t v : tri) require(v < m.vertices.size(), path, who + "triangle vertex out of range");
+    requireRows(m.candStart, n, m.candTri.size(), false, path, who + "candidates");
+    requireBelow(m.candTri, m.triangles.size(), path, who + "candidate triangle");
+    require(m.history.size() == n, path, who + "contact history does not match the particles");
+    for (const auto& slots : m.history)
+      for (const auto& slot : slots)
+        require(slot.triangle >= -1 && slot.triangle < static_cast<std::int64_t>(m.triangles.size()), path,
+                who + "contact history triangle out of range");
+  }
 }
 
 }  // namespace
@@ -163,7 +269,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   s.time = r.pod<double>(); s.step = r.pod<std::uint64_t>(); s.dissipated = r.pod<double>();
   s.externalWork = r.pod<double>(); s.driveWork = r.pod<double>(); s.gravity = r.pod<Vec3>();
   s.materials = MaterialTable{};
-  const auto nmat = r.pod<std::uint64_t>();
+  const auto nmat = r.count(8, "materials");
   for (std::uint64_t i = 0; i < nmat; ++i) {
     Material m;
     m.name = r.str();
@@ -188,7 +294,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   r.vec(s.bonds.byParticleStart); r.vec(s.bonds.byParticle);
   r.vec(s.neighbors.exclStart); r.vec(s.neighbors.exclPartner);
   r.vec(s.pairForce);
-  s.planes.resize(r.pod<std::uint64_t>());
+  s.planes.resize(r.count(8, "planes"));
   s.planeShear.resize(s.planes.size());
   s.planeTouch.resize(s.planes.size());
   s.planeContactForce.resize(s.planes.size());
@@ -204,7 +310,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   }
   r.vec(s.planeNear);
   r.vec(s.planesAtMark);
-  s.meshes.resize(r.pod<std::uint64_t>());
+  s.meshes.resize(r.count(8, "triangle wall groups"));
   for (TriangleWallGroup& m : s.meshes) {
     m.name = r.str();
     m.material = r.pod<std::uint16_t>();
@@ -215,10 +321,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     m.setVerticesAtBuild(std::move(ref));
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
   }
-  const std::size_t n = s.particles.size();
-  if (s.neighbors.rowStart.size() != n + 1 || s.pairForce.size() != s.neighbors.partner.size() ||
-      s.planeNear.size() != n)
-    throw std::runtime_error(path + ": inconsistent checkpoint (neighbour list does not match particles)");
+  checkRestored(s, path);
 }
 
 }  // namespace cosim::dem

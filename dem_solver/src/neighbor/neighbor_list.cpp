@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -41,17 +42,48 @@ bool NeighborList::needsRebuild(const Particles& p, const PeriodicCell* cell) co
   return rebuild;
 }
 
+namespace {
+std::string unbinnableMessage(const Particles& p) {
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(p.x[i][d]))
+        return "particle " + std::to_string(p.id[i]) + ": non-finite " + static_cast<char>('x' + d) +
+               " coordinate, cannot bin it";
+  int d = 0;  // the axis whose extent overflows
+  std::size_t lo = 0, hi = 0;
+  for (int a = 0; a < 3; ++a) {
+    std::size_t l = 0, h = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (p.x[i][a] < p.x[l][a]) l = i;
+      if (p.x[i][a] > p.x[h][a]) h = i;
+    }
+    if (!std::isfinite(p.x[h][a] - p.x[l][a])) d = a, lo = l, hi = h;
+  }
+  const char axis = static_cast<char>('x' + d);
+  std::ostringstream s;
+  s << "particles " << p.id[lo] << " and " << p.id[hi] << " lie at " << axis << " = " << p.x[lo][d] << " and "
+    << p.x[hi][d] << " m: an extent no neighbour grid can hold";
+  return s.str();
+}
+}  // namespace
+
 void NeighborList::binParticles(const Particles& p, double cell) {
   const std::size_t n = p.size();
   Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
           std::numeric_limits<double>::max()};
   Vec3 hi = -lo;
   if (n == 0) lo = hi = Vec3{};  // no particles yet (a DEM side of only hybrid PD particles): one empty cell
+  bool finite = true;
   for (const Vec3& x : p.x)
     for (int d = 0; d < 3; ++d) {
       lo[d] = std::min(lo[d], x[d]);
       hi[d] = std::max(hi[d], x[d]);
+      finite = finite && std::isfinite(x[d]);
     }
+  // A non-finite coordinate has no cell, and an extent that overflows would
+  // make the cell count below NaN and its loop endless: stop with the particles.
+  for (int d = 0; d < 3; ++d)
+    if (!finite || !std::isfinite(hi[d] - lo[d])) throw std::runtime_error(unbinnableMessage(p));
   // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
   // Cap the cell count near 2N so a sparse, wide cloud cannot exhaust memory.
   // Counted in double: a runaway particle (an unstable coupled run) must not overflow the int cell index.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +10,20 @@
 
 namespace cosim::dem {
 namespace {
+
+enum class Token { number, text, outOfRange };
+
+Token parseToken(const std::string& tok, double& value) {
+  std::size_t used = 0;
+  try {
+    value = std::stod(tok, &used);
+  } catch (const std::out_of_range&) {
+    return Token::outOfRange;
+  } catch (const std::exception&) {
+    return Token::text;
+  }
+  return used == tok.size() ? Token::number : Token::text;
+}
 
 SphereSet readCsv(const std::string& path) {
   std::ifstream in(path);
@@ -25,34 +40,22 @@ SphereSet readCsv(const std::string& path) {
     for (char& c : line)
       if (c == ',' || c == ';' || c == '\t') c = ' ';
     std::istringstream fields(line);
-    std::vector<double> v;
-    std::string tok;
-    int col = 0;
-    bool header = false;
-    while (fields >> tok) {
-      ++col;
-      std::size_t used = 0;
-      double value = 0.0;
-      try {
-        value = std::stod(tok, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != tok.size()) {
-        if (first) {  // one header line of column names is allowed
-          header = true;
-          break;
-        }
-        throw std::invalid_argument(path + ":" + std::to_string(lineNo) + ": column " + std::to_string(col) +
-                                    ": '" + tok + "' is not a number");
-      }
-      if (!std::isfinite(value))
-        throw std::invalid_argument(path + ":" + std::to_string(lineNo) + ": column " + std::to_string(col) +
-                                    ": non-finite value '" + tok + "'");
-      v.push_back(value);
-    }
+    std::vector<std::string> tokens;
+    for (std::string tok; fields >> tok;) tokens.push_back(tok);
+    std::vector<double> v(tokens.size());
+    std::vector<Token> kinds(tokens.size());
+    for (std::size_t c = 0; c < tokens.size(); ++c) kinds[c] = parseToken(tokens[c], v[c]);
+    // One header line of column names is allowed, and only names: a data line
+    // with one mistyped number must not pass for a header and vanish.
+    const bool header = first && std::none_of(kinds.begin(), kinds.end(), [](Token k) { return k != Token::text; });
     first = false;
     if (header) continue;
+    for (std::size_t c = 0; c < tokens.size(); ++c) {
+      const std::string where = path + ":" + std::to_string(lineNo) + ": column " + std::to_string(c + 1) + ": ";
+      if (kinds[c] == Token::text) throw std::invalid_argument(where + "'" + tokens[c] + "' is not a number");
+      if (kinds[c] == Token::outOfRange || !std::isfinite(v[c]))
+        throw std::invalid_argument(where + "value '" + tokens[c] + "' is not finite or out of double range");
+    }
     if (v.size() != 4 && v.size() != 7)
       throw std::invalid_argument(path + ":" + std::to_string(lineNo) + ": expected 4 (x y z r) or 7 (x y z r vx vy vz) "
                                   "columns, found " + std::to_string(v.size()));
@@ -64,18 +67,29 @@ SphereSet readCsv(const std::string& path) {
   return s;
 }
 
+/// An N x 3 dataset: rank 2 with three columns (a 3 x N array has the right
+/// number of values and the wrong layout).
+void requireRows3(const io::H5File& file, const std::string& path, const char* name, std::size_t rows) {
+  const std::vector<std::size_t> shape = file.shape(name);
+  if (shape.size() != 2 || shape[1] != 3 || shape[0] != rows) {
+    std::string dims;
+    for (std::size_t d : shape) dims += (dims.empty() ? "" : " x ") + std::to_string(d);
+    throw std::invalid_argument(path + ": " + name + " has shape (" + dims + "), need " + std::to_string(rows) +
+                                " x 3 (one row per radius)");
+  }
+}
+
 SphereSet readHdf5(const std::string& path) {
   const io::H5File file = io::H5File::openReadOnly(path);
   for (const char* name : {"/positions", "/radii"})
     if (!file.exists(name)) throw std::invalid_argument(path + ": missing dataset " + name);
-  const std::vector<double> x = file.readArray("/positions"), r = file.readArray("/radii");
-  if (x.size() != 3 * r.size())
-    throw std::invalid_argument(path + ": /positions has " + std::to_string(x.size()) + " values for " +
-                                std::to_string(r.size()) + " radii (need N x 3)");
+  const std::vector<double> r = file.readArray("/radii");
+  requireRows3(file, path, "/positions", r.size());
+  const std::vector<double> x = file.readArray("/positions");
   std::vector<double> v;
   if (file.exists("/velocities")) {
+    requireRows3(file, path, "/velocities", r.size());
     v = file.readArray("/velocities");
-    if (v.size() != x.size()) throw std::invalid_argument(path + ": /velocities must be N x 3 like /positions");
   }
   SphereSet s;
   for (std::size_t i = 0; i < r.size(); ++i) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <sstream>
 
 #include "cosim/dem/packing/packing.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
@@ -55,6 +56,12 @@ void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& veloci
       throw SceneError(set.origin[i] + ": particle radius must be positive, got " + std::to_string(set.radii[i]) +
                        " (" + where.path() + ")");
     const std::size_t p = system.particles.add(set.centres[i], set.radii[i], density, material);
+    if (!std::isfinite(system.particles.inertia[p])) {
+      std::ostringstream m;
+      m << set.origin[i] << ": a particle of radius " << set.radii[i] << " m and density " << density
+        << " kg/m^3 has a mass or moment of inertia beyond double range (" << where.path() << ")";
+      throw SceneError(m.str());
+    }
     system.particles.v[p] = set.velocities[i] + velocity;
   }
 }
