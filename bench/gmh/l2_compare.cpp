@@ -53,6 +53,8 @@ namespace {
 namespace fs = std::filesystem;
 using M3 = std::array<double, 9>;  // row-major
 
+bool isFinite(double v) { return std::isfinite(v); }
+
 M3 mul(const M3& a, const M3& b) {
   M3 c{};
   for (int i = 0; i < 3; ++i)
@@ -211,9 +213,15 @@ int main(int argc, char** argv) {
     for (int n = 0; h5.exists("/snapshots/" + std::to_string(n)); ++n) {
       const std::string g = "/snapshots/" + std::to_string(n);
       double residual = 0.0;
-      F.push_back(fitF(X, h5.readArray(g + "/position"), residual));
+      const std::vector<double> position = h5.readArray(g + "/position"), stress = h5.readArray(g + "/stress");
+      if (position.size() != X.size() || stress.size() != 6 || !std::all_of(position.begin(), position.end(), isFinite) ||
+          !std::all_of(stress.begin(), stress.end(), isFinite))
+        throw std::runtime_error(snapshotName + ": " + g + " needs " + std::to_string(X.size()) +
+                                 " finite position values and 6 finite stress values, has " +
+                                 std::to_string(position.size()) + " and " + std::to_string(stress.size()));
+      F.push_back(fitF(X, position, residual));
       hourglass = std::max(hourglass, residual);
-      gmhVoigt.push_back(h5.readArray(g + "/stress"));
+      gmhVoigt.push_back(stress);
     }
     if (F.size() < 3) throw std::runtime_error(snapshotName + ": fewer than 3 snapshots");
     const std::size_t steps = F.size() - 1;  // GMH stresses known at F_0 .. F_{steps-1}

@@ -171,6 +171,13 @@ void readContacts(const cosim::io::H5File& f, const std::string& g, Snapshot& s)
   s.wallForces = f.readArray(g + "/contacts/wall_forces");
 }
 
+/// Throws naming the particle whose value (`per` numbers each) is NaN or infinite.
+void requireFinite(const std::vector<double>& values, std::size_t per, const char* what, const std::string& where) {
+  for (std::size_t k = 0; k < values.size(); ++k)
+    if (!std::isfinite(values[k]))
+      throw std::runtime_error(where + ": particle " + std::to_string(k / per) + " has a non-finite " + what);
+}
+
 Snapshot readSnapshot(const Args& a) {
   const cosim::io::H5File f = cosim::io::H5File::openReadOnly(a.snapshot);
   Snapshot s;
@@ -190,6 +197,12 @@ Snapshot readSnapshot(const Args& a) {
   } else {
     throw UsageError("--density: " + a.snapshot + g + " stores no masses; give the particle density");
   }
+  // A non-finite value would reach the grid's extent and be blamed on --spacing.
+  const std::string where = a.snapshot + g;
+  requireFinite(s.positions, 3, "position", where);
+  requireFinite(s.velocities, 3, "velocity", where);
+  requireFinite(s.radii, 1, "radius", where);
+  requireFinite(s.masses, 1, "mass", where);
   readContacts(f, g, s);
   return s;
 }

@@ -266,6 +266,17 @@ herr_t collectDatasets(hid_t group, const char* name, const H5L_info_t*, void* o
 }  // namespace
 
 void SeriesWriter::resumeAt(std::size_t rows) {
+  resumeWith([rows](const std::string&) { return rows; });
+}
+
+void SeriesWriter::resumeAt(const std::map<std::string, std::size_t>& rowsOf) {
+  resumeWith([&rowsOf](const std::string& name) {
+    const auto it = rowsOf.find(name);
+    return it == rowsOf.end() ? std::size_t{0} : it->second;
+  });
+}
+
+void SeriesWriter::resumeWith(const std::function<std::size_t(const std::string&)>& rowsOf) {
   std::vector<std::string> names;
   H5Lvisit(file_.group(group_), H5_INDEX_NAME, H5_ITER_INC, collectDatasets, &names);
   for (const auto& name : names) {
@@ -277,6 +288,7 @@ void SeriesWriter::resumeAt(std::size_t rows) {
     const int rank = H5Sget_simple_extent_dims(space, dims, nullptr);
     H5Sclose(space);
     const std::size_t cols = rank == 2 ? dims[1] : 1;
+    const std::size_t rows = rowsOf(name);
     const hsize_t cut[2] = {std::min<hsize_t>(dims[0], rows), cols};
     if (H5Dset_extent(d, cut) < 0) fail(file_.path(), "cannot cut " + full + " back to " + std::to_string(rows) + " rows");
     auto& ds = datasets_[name];
@@ -284,6 +296,12 @@ void SeriesWriter::resumeAt(std::size_t rows) {
     ds.cols = cols;
     ds.rows = cut[0];
   }
+}
+
+std::map<std::string, std::size_t> SeriesWriter::rowCounts() const {
+  std::map<std::string, std::size_t> out;
+  for (const auto& [name, ds] : datasets_) out[name] = rows(name);
+  return out;
 }
 
 std::size_t SeriesWriter::rows(const std::string& name) const {

@@ -273,6 +273,19 @@ void checkpointRoundTrip(const std::string& integrator, double dt) {
   double umax = 0.0;
   for (double u : a.state().u) umax = std::max(umax, std::abs(u));
   EXPECT_GT(umax, 0.0);
+  // A NaN time (bytes 16-23, after the magic and the dof count) is refused, naming the file.
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    const double nan = std::nan("");
+    f.seekp(16);
+    f.write(reinterpret_cast<const char*>(&nan), 8);
+  }
+  try {
+    b.restore(path);
+    ADD_FAILURE() << "restored a NaN time";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(path + " holds a non-finite time"), std::string::npos) << e.what();
+  }
   std::filesystem::remove_all(dir);
 }
 

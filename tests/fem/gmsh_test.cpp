@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <sstream>
+#include <tuple>
 
 #include "cosim/fem/mesh/gmsh_reader.hpp"
 #include "fem_test_util.hpp"
@@ -113,6 +114,22 @@ TEST(FemGmsh, ErrorsNameFileAndLine) {
   }
   std::istringstream v2("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n");
   EXPECT_THROW(readGmsh(v2, "old.msh"), InputError);
+  // Counts that are negative or larger than the file: refused before allocating.
+  for (const auto& [from, to, expected] :
+       {std::tuple<std::string, std::string, std::string>{"1 12 1 12\n", "1 4000000000 1 12\n", "bar.msh:17: number of nodes 4000000000"},
+        {"1 12 1 12\n", "1 -1 1 12\n", "bar.msh:17: number of nodes -1"},
+        {"3 1 0 12\n", "3 1 0 -1\n", "bar.msh:18: nodes in block -1"}}) {
+    std::string text = kBar;
+    text.replace(text.find(from), from.size(), to);
+    std::istringstream huge(text);
+    try {
+      readGmsh(huge, "bar.msh");
+      ADD_FAILURE() << "accepted " << to;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected + " is negative or more than the file holds"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace

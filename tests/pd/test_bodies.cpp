@@ -163,6 +163,9 @@ TEST(PdBodies, BadInputNamesBodyFileAndLine) {
   const auto badFile = tempFile("bad.txt", "0 0 zero 1e-9\n");
   msg = errorOf([&] { readPointFile(badFile.string()); });
   EXPECT_NE(msg.find(":1: 'zero' is not a number"), std::string::npos) << msg;
+  const auto twiceFile = tempFile("twice.txt", "0 0 0 1e-9\n0.001 0 0 1e-9\n0.002 0 0 1e-9\n0.001 0 0 1e-9\n");
+  msg = errorOf([&] { readPointFile(twiceFile.string()); });
+  EXPECT_NE(msg.find(twiceFile.string() + ":4: the point repeats line 2"), std::string::npos) << msg;
   BodySpec pts = a;
   pts.name = "cloud";
   pts.shape = Shape::Points;

@@ -101,7 +101,10 @@ class GmhCoupling final : public Coupling {
   }
 
   void exchange(ExchangeContext& ctx) override {
-    if (ctx.exchange == 0) learnOwners(ctx);
+    // At setup every worker announces its cells; a resumed run learns them
+    // from the workers' replies saved with the checkpoint (every cell answers
+    // its job each coarse step).
+    if (ctx.exchange == 0 || owner_.empty()) learnOwners(ctx);
     if (ctx.isNew(fem_) && ctx.outputs.count(fem_)) dispatch(ctx);
     // At setup this gathers the prepared cells' stresses: FEM's initial stresses (the confinement).
     if (std::any_of(workers_.begin(), workers_.end(), [&](const std::string& w) { return ctx.isNew(w); })) gather(ctx);
@@ -127,7 +130,9 @@ class GmhCoupling final : public Coupling {
           held.push_back(id);
         }
       if (held.empty())
-        throw std::runtime_error("coupling '" + name() + "': worker '" + w + "' announced no unit cells at setup");
+        throw std::runtime_error("coupling '" + name() + "': worker '" + w + "' announced no unit cells " +
+                                 (ctx.exchange == 0 ? std::string("at setup")
+                                                    : "in its reply of exchange " + std::to_string(ctx.exchange)));
     }
   }
 

@@ -58,7 +58,16 @@ CheckpointStore::Point readState(const fs::path& dir, std::uint64_t exchange) {
   const double time = std::strtod(text.c_str(), &end);
   if (text.empty() || *end != '\0' || !std::isfinite(time) || time < 0.0)
     return fail("'time_hex' is '" + text + "', not a finite time >= 0");
-  return {exchange, time, dir};
+  CheckpointStore::Point point{exchange, time, dir, std::nullopt};
+  if (const auto rows = state.find("series_rows"); rows != state.end()) {
+    if (!rows->is_object()) return fail("'series_rows' is not an object");
+    point.seriesRows.emplace();
+    for (const auto& [name, n] : rows->items()) {
+      if (!n.is_number_unsigned()) return fail("'series_rows." + name + "' is not a row count");
+      (*point.seriesRows)[name] = n.get<std::size_t>();
+    }
+  }
+  return point;
 }
 }  // namespace
 
@@ -71,7 +80,8 @@ fs::path CheckpointStore::begin(std::uint64_t exchange) {
   return dir;
 }
 
-CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double time, const std::string& sceneText) {
+CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double time, const std::string& sceneText,
+                                               const std::map<std::string, std::size_t>& seriesRows) {
   const auto partial = root_ / (name(exchange) + ".partial");
   {
     std::ofstream scene(partial / kScene);
@@ -81,6 +91,7 @@ CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double ti
     char hex[64];
     std::snprintf(hex, sizeof(hex), "%a", time);
     state["time_hex"] = hex;
+    state["series_rows"] = seriesRows;
     std::ofstream out(partial / kState);
     out << state.dump(2) << "\n";
     if (!out) throw std::runtime_error((partial / kState).string() + ": cannot write the checkpoint state");
@@ -93,7 +104,7 @@ CheckpointStore::Point CheckpointStore::commit(std::uint64_t exchange, double ti
     if (const auto committed = committedExchange(e.path())) all.emplace_back(*committed, e.path());
   std::sort(all.begin(), all.end());
   for (std::size_t i = 0; i + static_cast<std::size_t>(keep_) < all.size(); ++i) fs::remove_all(all[i].second);
-  return Point{exchange, time, final};
+  return Point{exchange, time, final, seriesRows};
 }
 
 std::optional<CheckpointStore::Point> CheckpointStore::latest() const {

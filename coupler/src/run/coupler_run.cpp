@@ -198,8 +198,10 @@ class CouplerRun final : public ExchangeDriver {
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
     h5_.emplace(io::H5File::openForAppend(runDir_ / "coupler.h5"));
     series_.emplace(*h5_, "/series");
-    // The setup row and the rows of the exchanges before the checkpoint.
-    series_->resumeAt(resumeFrom_->exchange / static_cast<std::uint64_t>(scene_.output.seriesEvery) + 1);
+    // Each series as it stood at the checkpoint; older checkpoints: the setup
+    // row and the rows of the exchanges before it.
+    if (resumeFrom_->seriesRows) series_->resumeAt(*resumeFrom_->seriesRows);
+    else series_->resumeAt(resumeFrom_->exchange / static_cast<std::uint64_t>(scene_.output.seriesEvery) + 1);
     log::info("resuming from exchange " + std::to_string(resumeFrom_->exchange) + " (t = " +
               std::to_string(resumeFrom_->time) + " s)");
   }
@@ -215,7 +217,7 @@ class CouplerRun final : public ExchangeDriver {
     session_->awaitReplies(pending);
     for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
     series_->flush();
-    checkpoints_.commit(exchange_, time_, scene_.text);
+    checkpoints_.commit(exchange_, time_, scene_.text, series_->rowCounts());
   }
 
   /// After setup: every solver restores its checkpoint; the couplings restage
@@ -241,7 +243,7 @@ class CouplerRun final : public ExchangeDriver {
     }
     exchange_ = completed_ = point.exchange;
     time_ = point.time;
-    runCouplings({names_.begin(), names_.end()});
+    runCouplings({names_.begin(), names_.end()}, true);
   }
 
   /// Where a started peer may run, as the report shows it; what went wrong otherwise.
@@ -460,11 +462,13 @@ class CouplerRun final : public ExchangeDriver {
                        [](const auto& c) { return c->usesEnergies(); });
   }
 
-  void runCouplings(const std::set<std::string>& advanced) {
+  /// `replay`: the exchange of a checkpoint run again on its saved replies,
+  /// to stage the next requests; its series rows are in the file already.
+  void runCouplings(const std::set<std::string>& advanced, bool replay = false) {
     ScopedTimer t(report_.mappingS);
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
-    ExchangeContext ctx{exchange_, time_, outputs_, inputs_, recordsThisExchange() ? &*series_ : nullptr, &energies_,
-                        advanced};
+    ExchangeContext ctx{exchange_, time_, outputs_, inputs_,
+                        recordsThisExchange() && !replay ? &*series_ : nullptr, &energies_, advanced};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
   }
 

@@ -12,7 +12,15 @@ namespace {
 
 class LineReader {
  public:
-  LineReader(std::istream& in, std::string name) : in_(in), name_(std::move(name)) {}
+  LineReader(std::istream& in, std::string name) : in_(in), name_(std::move(name)) {
+    // Every counted item takes at least one line: the file's size bounds the counts.
+    const auto start = in_.tellg();
+    if (start != std::istream::pos_type(-1) && in_.seekg(0, std::ios::end)) {
+      bytes_ = static_cast<std::size_t>(in_.tellg() - start);
+      in_.seekg(start);
+    }
+    in_.clear();
+  }
   bool next(std::string& line) {
     while (std::getline(in_, line)) {
       ++number_;
@@ -29,6 +37,13 @@ class LineReader {
   [[noreturn]] void fail(const std::string& message) const {
     throw InputError(name_ + ":" + std::to_string(number_) + ": " + message);
   }
+  /// A count of items that follow: not negative, and no more than the file can hold.
+  std::size_t count(std::istringstream& s, const char* what) {
+    const auto n = read<long long>(s, what);
+    if (n < 0 || static_cast<unsigned long long>(n) > bytes_)
+      fail(std::string(what) + " " + std::to_string(n) + " is negative or more than the file holds");
+    return static_cast<std::size_t>(n);
+  }
   template <class T>
   T read(std::istringstream& s, const char* what) {
     T v{};
@@ -40,6 +55,7 @@ class LineReader {
   std::istream& in_;
   std::string name_;
   int number_ = 0;
+  std::size_t bytes_ = std::size_t{1} << 40;
 };
 
 struct EntityKey {
@@ -75,8 +91,8 @@ Mesh readGmsh(std::istream& in, const std::string& name) {
       sawFormat = true;
     } else if (line == "$PhysicalNames") {
       auto s = r.fields();
-      const int n = r.read<int>(s, "number of physical names");
-      for (int i = 0; i < n; ++i) {
+      const std::size_t n = r.count(s, "number of physical names");
+      for (std::size_t i = 0; i < n; ++i) {
         auto f = r.fields();
         const int dim = r.read<int>(f, "dimension"), tag = r.read<int>(f, "physical tag");
         std::string rest;
@@ -87,10 +103,10 @@ Mesh readGmsh(std::istream& in, const std::string& name) {
       }
     } else if (line == "$Entities") {
       auto s = r.fields();
-      int counts[4];
-      for (int& c : counts) c = r.read<int>(s, "entity count");
+      std::size_t counts[4];
+      for (std::size_t& c : counts) c = r.count(s, "entity count");
       for (int dim = 0; dim < 4; ++dim)
-        for (int i = 0; i < counts[dim]; ++i) {
+        for (std::size_t i = 0; i < counts[dim]; ++i) {
           auto f = r.fields();
           const int tag = r.read<int>(f, "entity tag");
           for (int k = 0; k < (dim == 0 ? 3 : 6); ++k) r.read<double>(f, "coordinate");
@@ -100,15 +116,15 @@ Mesh readGmsh(std::istream& in, const std::string& name) {
         }
     } else if (line == "$Nodes") {
       auto s = r.fields();
-      const std::size_t blocks = r.read<std::size_t>(s, "number of entity blocks");
-      const std::size_t total = r.read<std::size_t>(s, "number of nodes");
+      const std::size_t blocks = r.count(s, "number of entity blocks");
+      const std::size_t total = r.count(s, "number of nodes");
       mesh.X.reserve(3 * total);
       for (std::size_t b = 0; b < blocks; ++b) {
         auto h = r.fields();
         r.read<int>(h, "entity dimension");
         r.read<int>(h, "entity tag");
         if (r.read<int>(h, "parametric flag") != 0) r.fail("parametric nodes are not supported");
-        const std::size_t n = r.read<std::size_t>(h, "nodes in block");
+        const std::size_t n = r.count(h, "nodes in block");
         std::vector<std::size_t> tags(n);
         for (auto& t : tags) {
           auto f = r.fields();
@@ -125,14 +141,14 @@ Mesh readGmsh(std::istream& in, const std::string& name) {
     } else if (line == "$Elements") {
       if (!sawNodes) r.fail("$Elements before $Nodes");
       auto s = r.fields();
-      const std::size_t blocks = r.read<std::size_t>(s, "number of entity blocks");
-      r.read<std::size_t>(s, "number of elements");
+      const std::size_t blocks = r.count(s, "number of entity blocks");
+      r.count(s, "number of elements");
       for (std::size_t b = 0; b < blocks; ++b) {
         auto h = r.fields();
         const int dim = r.read<int>(h, "entity dimension");
         const int tag = r.read<int>(h, "entity tag");
         const int type = r.read<int>(h, "element type");
-        const std::size_t n = r.read<std::size_t>(h, "elements in block");
+        const std::size_t n = r.count(h, "elements in block");
         const std::map<int, int> nodesOf = {{15, 1}, {1, 2}, {2, 3}, {3, 4}, {5, 8}};
         auto it = nodesOf.find(type);
         if (it == nodesOf.end())

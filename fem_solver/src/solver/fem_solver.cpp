@@ -25,7 +25,7 @@ using Code = proto::Error::Code;
 
 namespace {
 
-constexpr std::uint64_t kCheckpointMagic = 0x32504b4320454546ULL;  // "FEE CKP2": + hourglass dissipation
+constexpr std::uint64_t kCheckpointMagic = 0x33504b4320454546ULL;  // "FEE CKP3": + u at the split step's start (GMH)
 
 YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
   YAML::Node root;
@@ -626,6 +626,9 @@ std::uint64_t FemSolver::checkpoint(const std::string& path) {
     put(external_->stresses().data(), 8 * external_->stresses().size());
     put(pointF_.data(), 8 * pointF_.size());
     put(&pendingDt_, 8);
+    const std::uint64_t started = state_.uStepStart.size();  // 0 before the first step
+    put(&started, 8);
+    put(state_.uStepStart.data(), 8 * started);
   }
   out.flush();
   if (!out) throw SolverError(Code::SOLVER_FAILURE, "checkpoint: write to " + path + " failed");
@@ -642,6 +645,10 @@ void FemSolver::restore(const std::string& path) {
   };
   std::uint64_t magic = 0, dofs = 0;
   get(&magic, 8);
+  if ((magic & 0x00FFFFFFFFFFFFFFULL) == (kCheckpointMagic & 0x00FFFFFFFFFFFFFFULL) && magic != kCheckpointMagic)
+    throw SolverError(Code::BAD_INPUT, "restore: " + path + " is an FEM checkpoint of another format version (" +
+                                           std::string(1, static_cast<char>(magic >> 56)) + ", this build reads " +
+                                           std::string(1, static_cast<char>(kCheckpointMagic >> 56)) + ")");
   if (magic != kCheckpointMagic) throw SolverError(Code::BAD_INPUT, "restore: " + path + " is not an FEM checkpoint");
   get(&dofs, 8);
   if (dofs != state_.u.size())
@@ -658,7 +665,19 @@ void FemSolver::restore(const std::string& path) {
     get(external_->stresses().data(), 8 * external_->stresses().size());
     get(pointF_.data(), 8 * pointF_.size());
     get(&pendingDt_, 8);
+    std::uint64_t started = 0;
+    get(&started, 8);
+    if (started != 0 && started != dofs)
+      throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a split step of " + std::to_string(started) +
+                                             " dofs, the model has " + std::to_string(dofs));
+    s.uStepStart.resize(started);
+    get(s.uStepStart.data(), 8 * started);
   }
+  if (!std::isfinite(s.time) || !std::isfinite(s.externalWork) || !std::isfinite(pendingDt_))
+    throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a non-finite time, work or step");
+  for (const auto* v : {&s.u, &s.v, &s.a})
+    for (const double x : *v)
+      if (!std::isfinite(x)) throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a non-finite displacement, velocity or acceleration");
   state_ = std::move(s);
 }
 

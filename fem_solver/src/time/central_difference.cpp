@@ -46,18 +46,19 @@ class CentralDifference final : public Integrator {
 
   void predict(State& state, double dt) override {
     const double t1 = state.time + dt;
-    uOld_.resize(state.u.size());
+    std::vector<double>& uOld = state.uStepStart;
+    uOld.resize(state.u.size());
     forEachDof(state.u.size(), [&](std::size_t d) {
-      uOld_[d] = state.u[d];
+      uOld[d] = state.u[d];
       state.v[d] += 0.5 * dt * state.a[d];
       state.u[d] += dt * state.v[d];
     });
     for (const Prescribed& p : model_.prescribed()) {
       state.u[p.dof] = p.displacement(t1);
-      state.v[p.dof] = (state.u[p.dof] - uOld_[p.dof]) / dt;
+      state.v[p.dof] = (state.u[p.dof] - uOld[p.dof]) / dt;
     }
     model_.enforceSlaves(t1, state.u, nullptr);
-    for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = (state.u[s.dof] - uOld_[s.dof]) / dt;
+    for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = (state.u[s.dof] - uOld[s.dof]) / dt;
     model_.checkFinite(state.u, "displacement");
     state.time = t1;
     ++state.step;
@@ -92,7 +93,7 @@ class CentralDifference final : public Integrator {
     model_.checkFinite(state.v, "velocity");
     model_.addTieReactions(res_, fext_);
     accumulateHourglassDissipation(state);
-    accumulateWork(state, uOld_, fext_);
+    accumulateWork(state, state.uStepStart, fext_);
   }
 
  private:
@@ -109,13 +110,13 @@ class CentralDifference final : public Integrator {
   void accumulateHourglassDissipation(State& state) const {
     if (!model_.formulation().hasViscousForce()) return;
     state.hourglassDissipated += sumOverDofs(fvisc_.size(), [&](std::size_t d) {
-      return 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - uOld_[d]);
+      return 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - state.uStepStart[d]);
     });
     state.fViscous = fvisc_;
   }
   CentralDifferenceOptions options_;
   double criticalDt_ = 0.0;
-  std::vector<double> uOld_, fint_, fext_, fvisc_, res_, net_;
+  std::vector<double> fint_, fext_, fvisc_, res_, net_;
 };
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <span>
 #include <string>
@@ -66,7 +67,13 @@ class SeriesWriter {
   /// Adopts every series already under the group, cut to its first `rows`
   /// rows, so that appends continue a resumed run where its checkpoint was.
   void resumeAt(std::size_t rows);
+  /// The same, with each series cut to its own row count (series appended
+  /// on some rows only, e.g. per coarse step); a series not listed started
+  /// after the checkpoint and is cut to none.
+  void resumeAt(const std::map<std::string, std::size_t>& rowsOf);
   std::size_t rows(const std::string& name) const;
+  /// Every series' row count, appended rows included (what a checkpoint records).
+  std::map<std::string, std::size_t> rowCounts() const;
   void flush();
 
  private:
@@ -77,6 +84,7 @@ class SeriesWriter {
     std::vector<double> pending;  // appended, not yet written
   };
   Dataset& dataset(const std::string& name, std::size_t cols);
+  void resumeWith(const std::function<std::size_t(const std::string&)>& rowsOf);
   H5File& file_;
   std::string group_;
   std::map<std::string, Dataset> datasets_;

@@ -6,6 +6,7 @@
 // crash while checkpointing never leaves a half checkpoint to resume from.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -19,12 +20,16 @@ class CheckpointStore {
     std::uint64_t exchange = 0;
     double time = 0.0;
     std::filesystem::path dir;
+    // Rows of each /series dataset at the checkpoint (absent in checkpoints
+    // written before session 18: every series then has one row per record).
+    std::optional<std::map<std::string, std::size_t>> seriesRows;
   };
 
   /// A fresh directory for the checkpoint at this exchange (not yet visible).
   std::filesystem::path begin(std::uint64_t exchange);
   /// Records the coupler's own state, makes the checkpoint visible, drops old ones.
-  Point commit(std::uint64_t exchange, double time, const std::string& sceneText);
+  Point commit(std::uint64_t exchange, double time, const std::string& sceneText,
+               const std::map<std::string, std::size_t>& seriesRows);
   /// The newest complete checkpoint, if any.
   std::optional<Point> latest() const;
   /// The scene text a checkpoint was taken with.
