@@ -116,17 +116,6 @@ Args parseArgs(int argc, char** argv) {
   return a;
 }
 
-double readAttribute(const cosim::io::H5File& f, const std::string& object, const std::string& name,
-                     double fallback) {
-  if (H5Aexists_by_name(f.id(), object.c_str(), name.c_str(), H5P_DEFAULT) <= 0) return fallback;
-  const hid_t a = H5Aopen_by_name(f.id(), object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
-  double v = fallback;
-  const herr_t status = a < 0 ? -1 : H5Aread(a, H5T_NATIVE_DOUBLE, &v);
-  if (a >= 0) H5Aclose(a);
-  if (status < 0) throw std::runtime_error(f.path().string() + ": cannot read attribute " + object + "@" + name);
-  return v;
-}
-
 struct Snapshot {
   std::uint64_t step = 0;
   double time = 0.0;
@@ -183,10 +172,10 @@ Snapshot readSnapshot(const Args& a) {
   Snapshot s;
   s.step = chooseStep(f, a);
   const std::string g = "/snapshots/" + std::to_string(s.step);
-  if (readAttribute(f, g, "periodic", 0.0) != 0.0)
+  if (f.attribute(g, "periodic", 0.0) != 0.0)
     throw std::runtime_error(a.snapshot + g + ": periodic snapshots are not supported (contact points of periodic "
                                               "images lie a cell away from one partner)");
-  s.time = readAttribute(f, g, "time", 0.0);
+  s.time = f.attribute(g, "time", 0.0);
   s.positions = f.readArray(g + "/positions");
   s.velocities = f.readArray(g + "/velocities");
   s.radii = f.readArray(g + "/radii");

@@ -58,6 +58,7 @@ struct Setup {
   instance @2 :Text;         # which entry of solvers: is this one
   runDir @3 :Text;           # where the solver writes its own output
   inputs @4 :Data.CouplingData;  # setup-time coupling data (weight profiles ...)
+  resuming @5 :Bool;         # a restore follows: keep the output files in runDir, write no setup snapshot
 }
 
 struct SetupDone {

@@ -36,6 +36,10 @@ H5File H5File::openReadOnly(const std::filesystem::path& path) {
   return H5File(check(f, path, "cannot open the file (missing or not HDF5)"), path);
 }
 
+H5File H5File::createOrKeep(const std::filesystem::path& path, bool keep) {
+  return keep && std::filesystem::exists(path) ? openForAppend(path) : create(path);
+}
+
 H5File H5File::openForAppend(const std::filesystem::path& path) {
   quietErrors();
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
@@ -150,6 +154,44 @@ bool H5File::exists(const std::string& path) const {
     pos = next + 1;
   }
   return true;
+}
+
+double H5File::attribute(const std::string& object, const std::string& name, double fallback) const {
+  if (H5Aexists_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT) <= 0) return fallback;
+  const hid_t a = H5Aopen_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
+  double v = fallback;
+  const herr_t status = a < 0 ? -1 : H5Aread(a, H5T_NATIVE_DOUBLE, &v);
+  if (a >= 0) H5Aclose(a);
+  if (status < 0) fail(path_, "cannot read attribute " + object + "@" + name);
+  return v;
+}
+
+namespace {
+herr_t collectNames(hid_t, const char* name, const H5L_info_t*, void* out) {
+  static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+  return 0;
+}
+}  // namespace
+
+std::vector<std::string> H5File::children(const std::string& group) const {
+  std::vector<std::string> names;
+  if (!exists(group)) return names;
+  const hid_t g = check(H5Gopen2(file_, group.c_str(), H5P_DEFAULT), path_, "no group " + group);
+  H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectNames, &names);
+  H5Gclose(g);
+  return names;
+}
+
+void H5File::remove(const std::string& path) {
+  // Groups kept open under the path would still take writes, into the unlinked object.
+  for (auto it = groups_.begin(); it != groups_.end();)
+    if (it->first == path || it->first.rfind(path + "/", 0) == 0) {
+      H5Gclose(it->second);
+      it = groups_.erase(it);
+    } else {
+      ++it;
+    }
+  if (H5Ldelete(file_, path.c_str(), H5P_DEFAULT) < 0) fail(path_, "cannot remove " + path);
 }
 
 std::vector<std::size_t> H5File::shape(const std::string& path) const {

@@ -235,7 +235,7 @@ struct SolverHost::Impl {
   }
 
   void onSetup(std::uint64_t seq, proto::Setup::Reader s) {
-    SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs()};
+    SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming()};
     auto m = reply(seq, solver.outputWordsHint());
     auto done = m.envelope().getBody().initSetupDone();
     solver.setup(ctx, done.initOutputs());

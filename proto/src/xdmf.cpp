@@ -1,5 +1,8 @@
 #include "cosim/io/xdmf.hpp"
 
+#include "cosim/io/h5_file.hpp"
+
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -42,6 +45,24 @@ XdmfTimeSeries::XdmfTimeSeries(std::filesystem::path h5Path, std::string gridNam
 
 void XdmfTimeSeries::addStep(std::uint64_t step, double time, std::size_t points) {
   steps_.push_back({step, time, points});
+  write();
+}
+
+void XdmfTimeSeries::resumeAt(H5File& file, std::uint64_t step) {
+  steps_.clear();
+  for (const std::string& name : file.children("/snapshots")) {
+    if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const std::uint64_t k = std::stoull(name);
+    const std::string group = "/snapshots/" + name;
+    if (k > step) {
+      file.remove(group);
+      continue;
+    }
+    const auto shape = file.exists(group + "/" + geometry_) ? file.shape(group + "/" + geometry_) : std::vector<std::size_t>{};
+    steps_.push_back({k, file.attribute(group, "time", 0.0), shape.empty() ? 0 : shape[0]});
+  }
+  std::sort(steps_.begin(), steps_.end(), [](const Step& a, const Step& b) { return a.step < b.step; });
+  file.flush();
   write();
 }
 

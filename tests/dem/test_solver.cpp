@@ -37,8 +37,9 @@ struct Harness {
   proto::CouplingData::Builder inputs = inMsg.initRoot<proto::CouplingData>();
   proto::CouplingData::Builder outputs() { return outMsg.initRoot<proto::CouplingData>(); }
 
-  void setup(DemSolver& s, const std::string& yaml, const std::string& file = "scene.yaml", const std::string& dir = "") {
-    wire::SetupContext c{file, yaml, "particles", dir, inputs.asReader()};
+  void setup(DemSolver& s, const std::string& yaml, const std::string& file = "scene.yaml", const std::string& dir = "",
+             bool resuming = false) {
+    wire::SetupContext c{file, yaml, "particles", dir, inputs.asReader(), resuming};
     s.setup(c, outputs());
   }
   void advance(DemSolver& s, std::uint32_t steps, double dt) {
@@ -156,6 +157,48 @@ TEST(DemSolver, CheckpointRestoreContinuesBitForBit) {
   } catch (const wire::SolverError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.ckpt"), std::string::npos);
   }
+  fs::remove_all(dir);
+}
+
+TEST(DemSolver, AResumedRunContinuesItsSnapshotFile) {
+  // coupler run --resume: the solver keeps its snapshot file, drops what came
+  // after the checkpoint and writes it again, the same bits, series and sidecar.
+  const fs::path dir = tempDir("resume");
+  const std::string yaml = kPile + "      snapshots: {every: 1000, file: pile.h5}\n";
+  const double dt = 1e-5;
+  std::string wholeXmf;
+  {
+    DemSolver a;
+    Harness h;
+    h.setup(a, yaml, "scene.yaml", dir.string());
+    for (int k = 0; k < 4; ++k) h.advance(a, 500, dt);
+    a.checkpoint((dir / "a.ckpt").string());
+    for (int k = 0; k < 4; ++k) h.advance(a, 500, dt);
+  }
+  fs::copy_file(dir / "pile.h5", dir / "whole.h5");
+  wholeXmf = readFile(dir / "pile.xmf");
+  {
+    DemSolver b;
+    Harness h;
+    h.setup(b, yaml, "scene.yaml", dir.string(), true);
+    b.restore((dir / "a.ckpt").string());
+    EXPECT_EQ(io::H5File::openReadOnly(dir / "pile.h5").readArray("/series/step").size(), 3u);  // steps 0, 1000, 2000
+    for (int k = 0; k < 4; ++k) h.advance(b, 500, dt);
+  }
+  auto whole = io::H5File::openReadOnly(dir / "whole.h5");
+  auto resumed = io::H5File::openReadOnly(dir / "pile.h5");
+  EXPECT_EQ(resumed.children("/snapshots"), whole.children("/snapshots"));
+  EXPECT_EQ(whole.children("/snapshots").size(), 5u);
+  for (const std::string& step : whole.children("/snapshots"))
+    for (const std::string array : {"positions", "velocities", "contacts/pair_forces"}) {
+      const auto x = whole.readArray("/snapshots/" + step + "/" + array);
+      const auto y = resumed.readArray("/snapshots/" + step + "/" + array);
+      ASSERT_EQ(x.size(), y.size()) << step << " " << array;
+      EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << step << " " << array;
+    }
+  for (const std::string series : {"step", "time", "kinetic", "coordination"})
+    EXPECT_EQ(whole.readArray("/series/" + series), resumed.readArray("/series/" + series)) << series;
+  EXPECT_EQ(readFile(dir / "pile.xmf"), wholeXmf);
   fs::remove_all(dir);
 }
 

@@ -368,6 +368,7 @@ class CouplerRun final : public ExchangeDriver {
       setup.setSceneYaml(scene_.text);
       setup.setInstance(s.name);
       setup.setRunDir(fs::absolute(runDir_).string());
+      setup.setResuming(resumeFrom_.has_value());
       inputs.build(setup.initInputs());
       pending.emplace_back(s.name, session_->request(s.name, m));
     }

@@ -78,9 +78,9 @@ ContactSnapshot contactSnapshot(const DemSystem& system) {
   return c;
 }
 
-SnapshotWriter::SnapshotWriter(const std::string& h5Path)
+SnapshotWriter::SnapshotWriter(const std::string& h5Path, bool resuming)
     : h5Path_(h5Path),
-      file_(io::H5File::create(h5Path)),
+      file_(io::H5File::createOrKeep(h5Path, resuming)),
       xdmf_(h5Path, "particles", {}, "positions",
             {{"radius", "radii", 1},
              {"velocity", "velocities", 3},
@@ -90,6 +90,15 @@ SnapshotWriter::SnapshotWriter(const std::string& h5Path)
 }
 
 SnapshotWriter::~SnapshotWriter() = default;
+
+void SnapshotWriter::resumeAt(std::uint64_t step) {
+  // Every series row belongs to a snapshot: keep the rows of the steps kept.
+  std::size_t rows = 0;
+  if (file_.exists("/series/step"))
+    for (double s : file_.readArray("/series/step")) rows += s <= static_cast<double>(step) ? 1 : 0;
+  series_->resumeAt(rows);
+  xdmf_.resumeAt(file_, step);
+}
 
 void SnapshotWriter::write(const DemSystem& s) {
   const Particles& p = s.particles;

@@ -86,8 +86,8 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     std::filesystem::path file = settings_.snapshotFile.empty() ? instance_ + ".h5" : settings_.snapshotFile;
     if (file.is_relative() && !runDir_.empty()) file = std::filesystem::path(runDir_) / file;
     try {
-      snapshots_ = std::make_unique<SnapshotWriter>(file.string());
-      snapshots_->write(system_);
+      snapshots_ = std::make_unique<SnapshotWriter>(file.string(), context.resuming);
+      if (!context.resuming) snapshots_->write(system_);
     } catch (const std::exception& e) {
       throw SolverError(Code::BAD_INPUT, std::string("snapshots: ") + e.what());
     }
@@ -561,6 +561,7 @@ void DemSolver::restore(const std::string& path) {
                                std::to_string(system_.particles.size()));
     restored.excludedPairs = system_.excludedPairs;
     system_ = std::move(restored);
+    if (snapshots_) snapshots_->resumeAt(system_.step);
   } catch (const std::exception& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
   }

@@ -377,7 +377,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       if (outputEvery_ < 0) o.fail(o.node(), o.path() + ".every must be >= 0");
       if (outputEvery_ > 0) {
         const std::filesystem::path dir = context.runDir.empty() ? std::filesystem::path(".") : std::filesystem::path(context.runDir);
-        snapshots_ = std::make_unique<SnapshotWriter>(dir / file, *model_);
+        snapshots_ = std::make_unique<SnapshotWriter>(dir / file, *model_, context.resuming);
       }
     }
     p.finish();
@@ -394,7 +394,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     }
     if (external_) pointF_ = pointDeformationGradients();
     if (integrator_) integrator_->initialise(state_);
-    if (snapshots_) snapshots_->write(*model_, state_);
+    if (snapshots_ && !context.resuming) snapshots_->write(*model_, state_);
     fillCouplingOutputs(outputs, true);
   } catch (const InputError& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
@@ -679,6 +679,7 @@ void FemSolver::restore(const std::string& path) {
     for (const double x : *v)
       if (!std::isfinite(x)) throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a non-finite displacement, velocity or acceleration");
   state_ = std::move(s);
+  if (snapshots_) snapshots_->resumeAt(state_.step);
 }
 
 double FemSolver::criticalDt() const { return integrator_ ? integrator_->criticalDt() : 0.0; }

@@ -3,8 +3,8 @@
 
 namespace cosim::fem {
 
-SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, const Model& model)
-    : file_(io::H5File::create(h5Path)),
+SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, const Model& model, bool resuming)
+    : file_(io::H5File::createOrKeep(h5Path, resuming)),
       nodes_(model.numNodes()),
       elements_(model.mesh().numElements()),
       xdmf_(h5Path, "fem", {"Hexahedron", "/mesh/topology", 8, model.mesh().numElements()}, "position",
@@ -12,6 +12,7 @@ SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, const Model&
              {"velocity", "velocity", 3},
              {"stress", "stress", 6, io::XdmfTimeSeries::Center::cell},
              {"strain", "strain", 6, io::XdmfTimeSeries::Center::cell}}) {
+  if (file_.exists("/mesh/topology")) return;  // a resumed run's file
   const Mesh& mesh = model.mesh();
   std::vector<std::uint32_t> topology;
   topology.reserve(8 * elements_);

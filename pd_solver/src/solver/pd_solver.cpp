@@ -108,8 +108,8 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
   if (config_.outputEvery > 0) {
     std::filesystem::path p = config_.outputFile;
     if (p.is_relative() && !ctx.runDir.empty()) p = std::filesystem::path(ctx.runDir) / p;
-    snapshots_ = std::make_unique<SnapshotWriter>(p);
-    snapshots_->write(system_);
+    snapshots_ = std::make_unique<SnapshotWriter>(p, ctx.resuming);
+    if (!ctx.resuming) snapshots_->write(system_);
   }
   ready_ = true;
   startEnergyBalance();
@@ -371,6 +371,7 @@ void PdSolver::restore(const std::string& path) {
   system_.setTime(t, s);
   system_.externalWork() = w;
   advances_ = adv;
+  if (snapshots_) snapshots_->resumeAt(s);
   startEnergyBalance();
 }
 

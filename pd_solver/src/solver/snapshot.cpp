@@ -5,9 +5,9 @@
 
 namespace cosim::pd {
 
-SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path)
+SnapshotWriter::SnapshotWriter(const std::filesystem::path& h5Path, bool resuming)
     : path_(h5Path),
-      file_(cosim::io::H5File::create(h5Path)),
+      file_(cosim::io::H5File::createOrKeep(h5Path, resuming)),
       xdmf_(h5Path, "pd", {}, "position",
             {{"displacement", "displacement", 3},
              {"velocity", "velocity", 3},

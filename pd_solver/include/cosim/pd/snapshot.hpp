@@ -14,7 +14,10 @@ namespace cosim::pd {
 
 class SnapshotWriter {
  public:
-  explicit SnapshotWriter(const std::filesystem::path& h5Path);
+  /// `resuming`: keep an existing file (a restore follows, then resumeAt()).
+  explicit SnapshotWriter(const std::filesystem::path& h5Path, bool resuming = false);
+  /// After a restore to `step`: drops the later snapshots and continues the file.
+  void resumeAt(std::uint64_t step) { xdmf_.resumeAt(file_, step); }
   /// Writes /snapshots/<step>/{position, displacement, velocity, damage,
   /// strain, von_mises} and rewrites the .xmf sidecar listing every snapshot.
   void write(const PdSystem& system);

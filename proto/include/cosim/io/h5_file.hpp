@@ -22,6 +22,9 @@ class H5File {
   static H5File openReadOnly(const std::filesystem::path& path);
   /// Opens an existing file for writing (a resumed run continues its file).
   static H5File openForAppend(const std::filesystem::path& path);
+  /// A solver's snapshot file: kept and opened for appending when `keep` and
+  /// it exists (a resumed run), created otherwise.
+  static H5File createOrKeep(const std::filesystem::path& path, bool keep);
   H5File(H5File&& other) noexcept;
   H5File& operator=(H5File&& other) noexcept;
   H5File(const H5File&) = delete;
@@ -41,6 +44,12 @@ class H5File {
   std::vector<double> readArray(const std::string& path) const;
   std::vector<std::size_t> shape(const std::string& path) const;
   bool exists(const std::string& path) const;
+  /// A double attribute, or `fallback` when the object has none.
+  double attribute(const std::string& object, const std::string& name, double fallback) const;
+  /// Names of the links directly under a group (empty when it does not exist).
+  std::vector<std::string> children(const std::string& group) const;
+  /// Unlinks a dataset or group (a resumed run drops what it will write again).
+  void remove(const std::string& path);
   void flush();
 
  private:

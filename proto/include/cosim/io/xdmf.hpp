@@ -11,6 +11,8 @@
 
 namespace cosim::io {
 
+class H5File;
+
 class XdmfTimeSeries {
  public:
   enum class Center { node, cell };
@@ -36,6 +38,9 @@ class XdmfTimeSeries {
 
   /// Records snapshot /snapshots/<step> with `points` points and rewrites the sidecar.
   void addStep(std::uint64_t step, double time, std::size_t points);
+  /// A resumed run: drops the snapshots in `file` after `step` (the run
+  /// writes them again), adopts the ones before it and rewrites the sidecar.
+  void resumeAt(H5File& file, std::uint64_t step);
   const std::filesystem::path& path() const { return xmfPath_; }
 
  private:

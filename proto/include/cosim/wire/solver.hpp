@@ -41,6 +41,7 @@ struct SetupContext {
   std::string instance;
   std::string runDir;
   proto::CouplingData::Reader inputs;
+  bool resuming = false;  // a restore follows (coupler run --resume): append to existing output files
 };
 
 /// The SolverHost refuses an advance with steps = 0 or a dt that is not

@@ -37,9 +37,12 @@ ContactSnapshot contactSnapshot(const DemSystem& system);
 class SnapshotWriter {
  public:
   /// h5Path ends in .h5; the sidecar is the same path with .xmf.
-  explicit SnapshotWriter(const std::string& h5Path);
+  /// `resuming`: keep an existing file (a restore follows, then resumeAt()).
+  explicit SnapshotWriter(const std::string& h5Path, bool resuming = false);
   ~SnapshotWriter();
   void write(const DemSystem& system);
+  /// After a restore to `step`: drops the later snapshots and series rows and continues the file.
+  void resumeAt(std::uint64_t step);
   std::string xdmfPath() const { return xdmf_.path().string(); }
 
  private:

@@ -16,8 +16,11 @@ namespace cosim::fem {
 
 class SnapshotWriter {
  public:
-  SnapshotWriter(const std::filesystem::path& h5Path, const Model& model);
+  /// `resuming`: keep an existing file (a restore follows, then resumeAt()).
+  SnapshotWriter(const std::filesystem::path& h5Path, const Model& model, bool resuming = false);
   void write(const Model& model, const State& state);
+  /// After a restore to `step`: drops the later snapshots and continues the file.
+  void resumeAt(std::uint64_t step) { xdmf_.resumeAt(file_, step); }
   const std::filesystem::path& xdmfPath() const { return xdmf_.path(); }
 
  private:
