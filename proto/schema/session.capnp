@@ -59,6 +59,8 @@ struct Setup {
   runDir @3 :Text;           # where the solver writes its own output
   inputs @4 :Data.CouplingData;  # setup-time coupling data (weight profiles ...)
   resuming @5 :Bool;         # a restore follows: keep the output files in runDir, write no setup snapshot
+  sceneDir @6 :Text;         # relative paths in the scene resolve here: the user's scene file's directory
+                             # (with --set, sceneFile is the effective scene in the run directory)
 }
 
 struct SetupDone {

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <cstdlib>
 #include <iostream>
@@ -15,6 +16,17 @@
 #include "cosim/wire/sockets.hpp"
 
 namespace cosim::wire {
+
+std::string resolveScenePath(const std::string& file, const std::string& baseDir) {
+  const std::filesystem::path p(file);
+  if (p.is_absolute() || baseDir.empty()) return file;
+  const std::filesystem::path beside = std::filesystem::path(baseDir) / p;
+  return std::filesystem::exists(beside) ? beside.string() : file;
+}
+
+std::string SetupContext::baseDir() const {
+  return sceneDir.empty() ? std::filesystem::path(sceneFile).parent_path().string() : sceneDir;
+}
 
 const std::vector<std::string>& baseCapabilities() {
   static const std::vector<std::string> caps{"setup", "advance", "fields", "checkpoint", "restore"};
@@ -235,7 +247,8 @@ struct SolverHost::Impl {
   }
 
   void onSetup(std::uint64_t seq, proto::Setup::Reader s) {
-    SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming()};
+    SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
+                     s.getSceneDir()};
     auto m = reply(seq, solver.outputWordsHint());
     auto done = m.envelope().getBody().initSetupDone();
     solver.setup(ctx, done.initOutputs());

@@ -309,6 +309,17 @@ TEST(DemSolver, BadInputNamesFileKeyLineParticle) {
   EXPECT_EQ(s.system().particles.size(), 5u);
   EXPECT_EQ(s.system().particles.v[0].x, 1.0);
   EXPECT_EQ(s.system().particles.radius[4], 0.3);
+  // A relative particle file resolves against the scene's directory (sceneDir):
+  // with --set the scene text comes from the run directory, the file does not.
+  {
+    DemSolver r;
+    Harness hr;
+    wire::SetupContext c{(dir / "run" / "scene.effective.yaml").string(),
+                         scene("      particles: [{file: {path: ok.csv}}]\n"), "particles", "", hr.inputs.asReader(),
+                         false, dir.string()};
+    r.setup(c, hr.outputs());
+    EXPECT_EQ(r.system().particles.size(), 2u);
+  }
   // A missing solver entry.
   DemSolver t;
   Harness ht;

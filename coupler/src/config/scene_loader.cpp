@@ -70,6 +70,7 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
   SolverSpec s;
   s.line = m.mark().line + 1;
   s.name = m.requireString("name");
+  if (m.has("name") && s.name.empty()) m.error("name", "must not be empty");
   if (!s.name.empty() && !isInstanceName(s.name))
     m.error("name", "'" + s.name + "' is not a valid instance name (letters, digits, '_', '-', starting with a letter)");
   if (!s.name.empty() && !names.insert(s.name).second) m.error("name", "a solver named '" + s.name + "' is already declared");
@@ -300,6 +301,7 @@ Scene loadScene(const std::string& path) {
 Scene loadSceneText(const std::string& text, const std::string& displayName, const std::string& sceneDir) {
   Scene scene;
   scene.file = displayName;
+  scene.sceneDir = sceneDir.empty() ? "." : sceneDir;
   scene.text = text;
   const YAML::Node rootNode = config::loadYamlString(scene.text, displayName);
   Diagnostics diag(displayName);

@@ -369,6 +369,7 @@ class CouplerRun final : public ExchangeDriver {
       setup.setInstance(s.name);
       setup.setRunDir(fs::absolute(runDir_).string());
       setup.setResuming(resumeFrom_.has_value());
+      setup.setSceneDir(fs::absolute(scene_.sceneDir).string());
       inputs.build(setup.initInputs());
       pending.emplace_back(s.name, session_->request(s.name, m));
     }

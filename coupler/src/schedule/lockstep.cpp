@@ -31,6 +31,10 @@ class Lockstep final : public Schedule {
     if (endTime_ && dt_ > 0.0 && !withinExchangeLimit())
       m.error("end_time", "end_time / (dt x steps_per_exchange) = " + toString(*endTime_ / (dt_ * stepsPerExchange_)) +
                               " exchanges, more than the " + toString(kMaxExchanges) + " a run may have");
+    // A step longer than the run would end it "completed" without an exchange.
+    if (endTime_ && dt_ > 0.0 && withinExchangeLimit() && exchanges() == 0)
+      m.error("dt", "dt x steps_per_exchange = " + toString(dt_ * stepsPerExchange_) + " s is longer than end_time = " +
+                        toString(*endTime_) + " s: no exchange would run");
     if (!endTime_ && !fixedExchanges_ && !m.has("end_time") && !m.has("exchanges"))
       m.diagnostics().error(m.mark(), "schedule: give the run's length as end_time (s) or exchanges");
   }

@@ -12,6 +12,7 @@
 #include "cosim/dem/io/checkpoint.hpp"
 #include "cosim/dem/measure/measures.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
+#include "cosim/wire/solver.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/solver.hpp"
 
@@ -24,18 +25,10 @@ using Code = proto::Error::Code;
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'G', 'M', 'H'};
 constexpr std::uint32_t kVersion = 1;
 
-/// A relative cell file is looked up next to the scene first, then as given.
-std::string resolve(const std::string& file, const std::string& sceneFile) {
-  const std::filesystem::path p(file);
-  if (p.is_absolute()) return file;
-  const std::filesystem::path beside = std::filesystem::path(sceneFile).parent_path() / p;
-  return std::filesystem::exists(beside) ? beside.string() : file;
-}
-
-DemSystem loadCell(const YamlSection& s, const std::string& key, const std::string& sceneFile) {
+DemSystem loadCell(const YamlSection& s, const std::string& key, const std::string& baseDir) {
   DemSystem cell;
   try {
-    readCheckpoint(cell, resolve(s.text(key), sceneFile));
+    readCheckpoint(cell, wire::resolveScenePath(s.text(key), baseDir));
   } catch (const std::exception& e) {
     s.fail(key, e.what());
   }
@@ -93,12 +86,14 @@ std::array<double, 9> increment(std::span<const double> values, std::size_t k, s
 
 }  // namespace
 
-std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& node, const std::string& sceneFile) {
+std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& node, const std::string& sceneFile,
+                                                           const std::string& baseDir) {
+  const std::string dir = baseDir.empty() ? std::filesystem::path(sceneFile).parent_path().string() : baseDir;
   const YamlSection params(node, sceneFile, "params", {"unit_cells"});
   const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "stride", "weakened", "dt", "dt_factor",
                                                     "tolerance", "max_steps", "load_steps", "min_coordination",
                                                     "mass_damping"});
-  DemSystem prototype = loadCell(s, "file", sceneFile);
+  DemSystem prototype = loadCell(s, "file", dir);
   if (s.has("mass_damping")) {
     prototype.massDamping = s.number("mass_damping");
     if (prototype.massDamping < 0.0) s.fail("mass_damping", "must not be negative");
@@ -113,7 +108,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   std::unique_ptr<DemSystem> weak;
   if (s.has("weakened")) {
     const YamlSection w = s.child("weakened", {"file", "ids"});
-    weak = std::make_unique<DemSystem>(loadCell(w, "file", sceneFile));
+    weak = std::make_unique<DemSystem>(loadCell(w, "file", dir));
     weak->massDamping = prototype.massDamping;
     const YAML::Node ids = w.node("ids");
     if (!ids || !ids.IsSequence()) w.fail("ids", "expected a list of cell ids");

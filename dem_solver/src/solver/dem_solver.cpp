@@ -63,12 +63,12 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   try {
     const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
     if (params["unit_cells"]) {  // GMH worker: answers unitCellJobs only
-      cells_ = UnitCellWorker::fromParams(params, sceneFile_);
+      cells_ = UnitCellWorker::fromParams(params, sceneFile_, context.baseDir());
       cells_->report(outputs);
       ready_ = true;
       return;
     }
-    configure(params, sceneFile_, system_, settings_);
+    configure(params, sceneFile_, system_, settings_, context.baseDir());
     system_.initialize();
     checkParticles(system_, settings_.overlapTolerance, sceneFile_ + ": solver '" + instance_ + "'");
   } catch (const SolverError&) {

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <random>
 #include <sstream>
 
 #include "cosim/dem/packing/packing.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
+#include "cosim/wire/solver.hpp"
 
 namespace cosim::dem {
 namespace {
@@ -66,7 +68,7 @@ void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& veloci
   }
 }
 
-void readParticles(const YamlSection& params, DemSystem& system) {
+void readParticles(const YamlSection& params, DemSystem& system, const std::string& baseDir) {
   // A DEM side of only PD bodies (their hybrid surface particles meet each
   // other here, Hartmann Sec. 3) has no spheres of its own.
   const bool hybridOnly = params.has("hybrid");
@@ -125,7 +127,7 @@ void readParticles(const YamlSection& params, DemSystem& system) {
       addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
     } else if (src.has("file")) {
       const YamlSection s = src.child("file", {"path", "material", "velocity"});
-      std::string file = s.text("path");
+      const std::string file = wire::resolveScenePath(s.text("path"), baseDir);
       try {
         addSpheres(readSphereFile(file), materialOf(s, system), s.vec3("velocity", {}), system, s);
       } catch (const SceneError&) {
@@ -284,7 +286,8 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
   throw SceneError(sceneFile + ": no solver named '" + instance + "' in solvers:");
 }
 
-void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& system, RunSettings& settings) {
+void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& system, RunSettings& settings,
+               const std::string& baseDir) {
   const YamlSection params(node, sceneFile, "params",
                            {"contact", "integrator", "gravity", "skin", "dt", "force", "overlap_tolerance", "energy_tolerance",
                             "materials", "particles", "walls", "snapshots", "periodic", "mass_damping", "bonds",
@@ -306,7 +309,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   if (normal == "linear")
     for (const Material& m : system.materials.all())
       if (!(m.kn > 0.0)) params.fail("materials", "material '" + m.name + "' needs kn > 0 for the linear law");
-  readParticles(params, system);
+  readParticles(params, system, baseDir.empty() ? std::filesystem::path(sceneFile).parent_path().string() : baseDir);
   readWalls(params, system);
   double rmin = std::numeric_limits<double>::max();
   for (double r : system.particles.radius) rmin = std::min(rmin, r);

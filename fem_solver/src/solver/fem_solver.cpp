@@ -49,10 +49,10 @@ YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
   throw InputError(context.sceneFile + ": no solver named '" + context.instance + "'");
 }
 
-Mesh readMesh(ParamMap p) {
+/// A relative Gmsh file resolves against the scene's directory (`baseDir`), then as given.
+Mesh readMesh(ParamMap p, const std::string& baseDir) {
   if (p.has("gmsh")) {
-    std::filesystem::path file = p.text("gmsh");
-    if (file.is_relative()) file = std::filesystem::path(p.file()).parent_path() / file;
+    const std::filesystem::path file = wire::resolveScenePath(p.text("gmsh"), baseDir);
     p.finish();
     try {
       return readGmsh(file.string());
@@ -125,7 +125,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     std::string path;
     YAML::Node params = findParams(context, path);
     ParamMap p(params, context.sceneFile, path);
-    Mesh mesh = readMesh(p.map("mesh"));
+    Mesh mesh = readMesh(p.map("mesh"), context.baseDir());
     // Named node/face sets by box: nodes in the box, boundary faces with all nodes in it.
     if (p.has("sets")) {
       YAML::Node sets = p.get("sets");

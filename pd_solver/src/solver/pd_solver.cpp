@@ -90,8 +90,7 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
                                       ctx.instance + "' has no 'params' section");
       }
     if (!found) throw std::invalid_argument(file + ": no solver named '" + ctx.instance + "'");
-    const std::string baseDir =
-        ctx.sceneFile.empty() ? "" : std::filesystem::path(ctx.sceneFile).parent_path().string();
+    const std::string baseDir = ctx.baseDir();
     config_ = parsePdParams(params, file, baseDir);
     buildSystem(config_, system_, file);
   } catch (const YAML::Exception& e) {

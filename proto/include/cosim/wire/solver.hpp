@@ -35,6 +35,10 @@ class SolverError : public std::runtime_error {
   proto::Error::Code code_;
 };
 
+/// A relative file named in a scene: looked up in `baseDir` (the scene's
+/// directory) first, then as given (relative to the working directory).
+std::string resolveScenePath(const std::string& file, const std::string& baseDir);
+
 struct SetupContext {
   std::string sceneFile;
   std::string sceneYaml;
@@ -42,6 +46,9 @@ struct SetupContext {
   std::string runDir;
   proto::CouplingData::Reader inputs;
   bool resuming = false;  // a restore follows (coupler run --resume): append to existing output files
+  std::string sceneDir = {};  // where relative paths in the scene resolve; empty: sceneFile's directory
+  /// The directory relative paths in the scene (meshes, particle and cell files) resolve against.
+  std::string baseDir() const;
 };
 
 /// The SolverHost refuses an advance with steps = 0 or a dt that is not

@@ -48,6 +48,7 @@ struct PlacementSpec {
 
 struct Scene {
   std::string file;
+  std::string sceneDir;  // relative paths in the scene resolve here (the user's file's directory)
   std::string text;
   std::string name;
   std::string description;

@@ -38,7 +38,9 @@ namespace cosim::dem {
 class UnitCellWorker {
  public:
   /// From params.unit_cells; every other params key is refused (a worker holds only cells).
-  static std::unique_ptr<UnitCellWorker> fromParams(const YAML::Node& params, const std::string& sceneFile);
+  /// Relative cell files resolve against `baseDir` (empty: sceneFile's directory), then as given.
+  static std::unique_ptr<UnitCellWorker> fromParams(const YAML::Node& params, const std::string& sceneFile,
+                                                    const std::string& baseDir = "");
   /// Answers every UnitCellJobs list in inputs with a UnitCellResults list in outputs.
   void answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs);
   /// The state of every cell it holds, without a job: its setup reply, which

@@ -65,7 +65,9 @@ struct RunSettings {
 /// Finds the `solvers:` entry named instance in the scene text; throws SceneError.
 YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sceneFile, const std::string& instance);
 /// Fills system (before initialize()) and settings from a params map.
-void configure(const YAML::Node& params, const std::string& sceneFile, DemSystem& system, RunSettings& settings);
+/// Relative particle files resolve against `baseDir` (empty: sceneFile's directory), then as given.
+void configure(const YAML::Node& params, const std::string& sceneFile, DemSystem& system, RunSettings& settings,
+               const std::string& baseDir = "");
 /// Checks radii, densities, finiteness and initial overlaps; throws naming the particle.
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context);
 
