@@ -5,6 +5,7 @@
 
 #include "cosim/dem/dem_system.hpp"
 #include "cosim/dem/measure/measures.hpp"
+#include "cosim/dem/packing/packing.hpp"
 
 namespace cosim::dem::test {
 
@@ -19,6 +20,18 @@ inline Material glass(double restitution = 1.0, double friction = 0.0) {
   m.kn = 1e5;
   m.kt = 2.0 / 7.0 * 1e5;
   return m;
+}
+
+/// A loose random packing of soft frictional glass spheres (E = 5e7 Pa) in the box lo-hi.
+inline DemSystem softGlassPacking(const Vec3& lo, const Vec3& hi, double rmin, double rmax, std::size_t count,
+                                  std::uint64_t seed) {
+  DemSystem s;
+  Material m = glass(0.5, 0.4);
+  m.young = 5e7;
+  s.materials.add(m);
+  const SphereSet set = randomPacking(lo, hi, rmin, rmax, count, seed);
+  for (std::size_t i = 0; i < set.radii.size(); ++i) s.particles.add(set.centres[i], set.radii[i], m.density);
+  return s;
 }
 
 /// Analytic elastic Hertz contact time (Johnson 1985 Sec. 11.4), written out

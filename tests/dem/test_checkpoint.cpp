@@ -16,12 +16,7 @@ namespace {
 
 /// A small settled-ish system with a plane, a triangle wall and contacts.
 DemSystem smallSystem() {
-  DemSystem s;
-  Material m = glass(0.5, 0.4);
-  m.young = 5e7;
-  s.materials.add(m);
-  const SphereSet set = randomPacking({0, 0, 0}, {0.01, 0.01, 0.01}, 0.0007, 0.001, 60, 3);
-  for (std::size_t i = 0; i < set.radii.size(); ++i) s.particles.add(set.centres[i], set.radii[i], m.density);
+  DemSystem s = softGlassPacking({0, 0, 0}, {0.01, 0.01, 0.01}, 0.0007, 0.001, 60, 3);
   s.planes.push_back(PlaneWall{});
   TriangleWallGroup lid;
   lid.name = "lid";

@@ -20,17 +20,10 @@ namespace cosim::dem::test {
 namespace {
 
 DemSystem pile() {
-  DemSystem s;
-  Material m = glass(0.5, 0.4);
-  m.young = 5e7;
-  s.materials.add(m);
-  const SphereSet set = randomPacking({0, 0, 0}, {0.03, 0.03, 0.03}, 0.0007, 0.001, 3000, 9);
+  DemSystem s = softGlassPacking({0, 0, 0}, {0.03, 0.03, 0.03}, 0.0007, 0.001, 3000, 9);
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> u(-0.5, 0.5);
-  for (std::size_t i = 0; i < set.radii.size(); ++i) {
-    s.particles.add(set.centres[i], set.radii[i], m.density);
-    s.particles.v.back() = {u(rng), u(rng), u(rng)};  // collisions from the first steps
-  }
+  for (Vec3& v : s.particles.v) v = {u(rng), u(rng), u(rng)};  // collisions from the first steps
   PlaneWall floor;
   s.planes.push_back(floor);
   // A servo lid just above the pile: its motion follows the wall force summed
