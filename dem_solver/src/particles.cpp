@@ -1,5 +1,6 @@
 #include "cosim/dem/particles.hpp"
 
+#include <cmath>
 #include <numbers>
 
 namespace cosim::dem {
@@ -24,6 +25,16 @@ std::size_t Particles::add(const Vec3& position, double r, double density, std::
   driven.push_back(0);
   id.push_back(static_cast<std::uint32_t>(id.size()));
   return radius.size() - 1;
+}
+
+std::string Particles::defectOf(std::size_t i) const {
+  // Per component: the square of a large, finite coordinate would overflow.
+  const auto finite = [](const Vec3& a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); };
+  if (!finite(x[i]) || !finite(v[i]) || !finite(omega[i])) return "non-finite position or velocity";
+  if (!(radius[i] > 0.0) || !std::isfinite(radius[i])) return "radius not positive and finite";
+  if (!(mass[i] > 0.0) || !std::isfinite(mass[i]) || !(inertia[i] > 0.0) || !std::isfinite(inertia[i]))
+    return "mass or inertia not positive and finite";
+  return "";
 }
 
 void Particles::reserve(std::size_t n) {

@@ -25,7 +25,7 @@ std::string name(std::uint64_t exchange) {
 /// The exchange in a committed checkpoint's directory name ("exchange-N"), if it is one.
 std::optional<std::uint64_t> committedExchange(const fs::path& dir) {
   const std::string n = dir.filename().string(), digits = n.substr(std::min(n.size(), std::string(kPrefix).size()));
-  if (n.rfind(kPrefix, 0) != 0 || digits.empty() || digits.size() > 19 ||
+  if (n.rfind(kPrefix, 0) != 0 || digits.empty() || digits.size() > 18 ||
       !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
     return std::nullopt;
   return std::stoull(digits);

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "cosim/util/stream_size.hpp"
+
 namespace cosim::dem {
 namespace {
 
@@ -45,15 +47,7 @@ class Writer {
 
 class Reader {
  public:
-  Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {
-    // The bytes left bound every count read below: a corrupt count must not
-    // allocate memory the file cannot fill.
-    if (start_ != std::istream::pos_type(-1) && in_.seekg(0, std::ios::end)) {
-      left_ = static_cast<std::uint64_t>(in_.tellg() - start_);
-      in_.seekg(start_);
-    }
-    in_.clear();
-  }
+  Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {}
   template <class T>
   T pod() {
     T v{};
@@ -61,10 +55,11 @@ class Reader {
     check();
     return v;
   }
-  /// A count of records of at least `bytesEach` bytes that must still fit in the file.
+  /// A count of records of at least `bytesEach` bytes that must still fit in
+  /// the file: a corrupt count must not allocate memory the file cannot fill.
   std::uint64_t count(std::uint64_t bytesEach, const char* what) {
     const auto n = pod<std::uint64_t>();
-    if (n > left() / bytesEach)
+    if (n > util::bytesLeft(in_, std::uint64_t{1} << 40) / bytesEach)
       throw std::runtime_error(path_ + ": corrupt checkpoint (" + std::to_string(n) + " " + what +
                                ", more than the file holds)");
     return n;
@@ -89,16 +84,8 @@ class Reader {
   void check() {
     if (!in_) throw std::runtime_error(path_ + ": truncated checkpoint");
   }
-  std::uint64_t left() {
-    const auto at = in_.tellg();
-    if (at == std::istream::pos_type(-1) || left_ == kUnknown) return kUnknown;
-    return left_ - std::min<std::uint64_t>(left_, static_cast<std::uint64_t>(at - start_));
-  }
-  static constexpr std::uint64_t kUnknown = std::uint64_t{1} << 40;
   std::istream& in_;
   std::string path_;
-  std::istream::pos_type start_ = in_.tellg();
-  std::uint64_t left_ = kUnknown;
 };
 
 template <class IO, class P>
@@ -145,14 +132,9 @@ void checkRestored(const DemSystem& s, const std::string& path) {
     require(len == n, path, "particle arrays of different lengths");
   require(std::isfinite(s.time), path, "non-finite time");
   requireBelow(p.material, s.materials.size(), path, "particle material");
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::string who = "particle " + std::to_string(p.id[i]) + ": ";
-    require(std::isfinite(norm2(p.x[i])) && std::isfinite(norm2(p.v[i])) && std::isfinite(norm2(p.omega[i])), path,
-            who + "non-finite position or velocity");
-    require(p.radius[i] > 0.0 && std::isfinite(p.radius[i]), path, who + "radius not positive and finite");
-    require(p.mass[i] > 0.0 && std::isfinite(p.mass[i]) && p.inertia[i] > 0.0 && std::isfinite(p.inertia[i]), path,
-            who + "mass or inertia not positive and finite");
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (const std::string defect = p.defectOf(i); !defect.empty())
+      require(false, path, "particle " + std::to_string(p.id[i]) + ": " + defect);
   const NeighborList& nl = s.neighbors;
   const std::size_t pairs = nl.partner.size();
   requireRows(nl.rowStart, n, pairs, false, path, "neighbour list");

@@ -82,8 +82,8 @@ void NeighborList::binParticles(const Particles& p, double cell) {
     }
   // A non-finite coordinate has no cell, and an extent that overflows would
   // make the cell count below NaN and its loop endless: stop with the particles.
-  for (int d = 0; d < 3; ++d)
-    if (!finite || !std::isfinite(hi[d] - lo[d])) throw std::runtime_error(unbinnableMessage(p));
+  if (!finite || !std::isfinite(hi.x - lo.x) || !std::isfinite(hi.y - lo.y) || !std::isfinite(hi.z - lo.z))
+    throw std::runtime_error(unbinnableMessage(p));
   // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
   // Cap the cell count near 2N so a sparse, wide cloud cannot exhaust memory.
   // Counted in double: a runaway particle (an unstable coupled run) must not overflow the int cell index.

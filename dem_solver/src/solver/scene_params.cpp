@@ -365,14 +365,9 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
 
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context) {
   const Particles& p = system.particles;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (int d = 0; d < 3; ++d)
-      if (!std::isfinite(p.x[i][d]) || !std::isfinite(p.v[i][d]))
-        throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-finite position or velocity");
-    if (!(p.radius[i] > 0.0)) throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-positive radius");
-    if (!(p.mass[i] > 0.0) || !std::isfinite(p.mass[i]))
-      throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": non-positive density");
-  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (const std::string defect = p.defectOf(i); !defect.empty())
+      throw SceneError(context + ": particle " + std::to_string(p.id[i]) + ": " + defect);
   // Initial overlaps beyond the tolerance would start the run with a blast.
   if (const auto o = excessOverlap(system, overlapTolerance))
     throw SceneError(context + ": particles " + std::to_string(p.id[o->i]) + " and " + std::to_string(p.id[o->j]) +

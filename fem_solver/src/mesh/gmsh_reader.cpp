@@ -7,20 +7,16 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "cosim/util/stream_size.hpp"
+
 namespace cosim::fem {
 namespace {
 
 class LineReader {
  public:
-  LineReader(std::istream& in, std::string name) : in_(in), name_(std::move(name)) {
-    // Every counted item takes at least one line: the file's size bounds the counts.
-    const auto start = in_.tellg();
-    if (start != std::istream::pos_type(-1) && in_.seekg(0, std::ios::end)) {
-      bytes_ = static_cast<std::size_t>(in_.tellg() - start);
-      in_.seekg(start);
-    }
-    in_.clear();
-  }
+  // Every counted item takes at least one line: the file's size bounds the counts.
+  LineReader(std::istream& in, std::string name)
+      : in_(in), name_(std::move(name)), bytes_(util::bytesLeft(in, std::uint64_t{1} << 40)) {}
   bool next(std::string& line) {
     while (std::getline(in_, line)) {
       ++number_;
@@ -55,7 +51,7 @@ class LineReader {
   std::istream& in_;
   std::string name_;
   int number_ = 0;
-  std::size_t bytes_ = std::size_t{1} << 40;
+  std::uint64_t bytes_;
 };
 
 struct EntityKey {

@@ -2,6 +2,7 @@
 // Sphere storage as structure-of-arrays: one contiguous array per quantity so
 // the force and integration loops stream through memory.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "cosim/dem/vec3.hpp"
@@ -14,6 +15,10 @@ class Particles {
   /// Appends a sphere at rest; mass and inertia follow from radius and density.
   std::size_t add(const Vec3& position, double r, double density, std::uint16_t materialId = 0);
   void reserve(std::size_t n);
+  /// What makes sphere i unusable ("" when nothing): a non-finite position or
+  /// velocity, a radius, mass or inertia that is not positive and finite.
+  /// Scene input and restored checkpoints are checked with it.
+  std::string defectOf(std::size_t i) const;
   void clearForces();
 
   std::vector<Vec3> x;        // centre positions [m]
