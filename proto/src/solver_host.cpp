@@ -9,6 +9,7 @@
 #include <fstream>
 #include <cstdlib>
 #include <iostream>
+#include <new>
 #include <thread>
 
 #include "cosim/wire/clock.hpp"
@@ -189,6 +190,12 @@ struct SolverHost::Impl {
       dispatch(env);
     } catch (const SolverError& e) {
       sendError(seq, e.code(), e.what());
+    } catch (const std::bad_alloc&) {
+      // Sizes come from the scene (mesh divisions, particle counts, array
+      // lengths): say so instead of a bare "std::bad_alloc".
+      sendError(seq, which == Which::SETUP ? proto::Error::Code::BAD_INPUT : proto::Error::Code::SOLVER_FAILURE,
+                "'" + bodyName(env) + "' ran out of memory: the scene asks for more than this machine holds "
+                "(check its sizes: mesh divisions, particle counts, array lengths)");
     } catch (const kj::Exception& e) {
       sendError(seq, proto::Error::Code::MALFORMED,
                 std::string("could not read '") + bodyName(env) + "': " + e.getDescription().cStr());

@@ -180,6 +180,36 @@ TEST(FemSolverAdapter, MissingSetAndBadIntegratorAreNamed) {
   EXPECT_NE(msg2.find("integrator.type"), std::string::npos) << msg2;
 }
 
+// Checks inside the integrators, the material and the mesh generator are
+// reported at the scene line that gave the values (the audit found bare ones).
+TEST(FemSolverAdapter, IntegratorMaterialAndMeshLimitsNameTheLine) {
+  auto setupError = [](const std::string& yaml) {
+    FemSolver s;
+    Harness h;
+    return errorOf([&] { h.setup(s, yaml); });
+  };
+  const std::string beta = setupError(scene("{type: newmark, beta: -1}"));
+  EXPECT_NE(beta.find("scene.yaml:19: solvers[1].params.integrator: newmark: need beta > 0"), std::string::npos) << beta;
+  const std::string damping = setupError(scene("{type: central-difference, damping: -1}"));
+  EXPECT_NE(damping.find("scene.yaml:19: solvers[1].params.integrator: central difference: damping must be >= 0"),
+            std::string::npos) << damping;
+  const std::string scale = setupError(scene("{type: central-difference, mass_scaling: 0}"));
+  EXPECT_NE(scale.find("scene.yaml:19: solvers[1].params.integrator: mass scaling factor must be positive"),
+            std::string::npos) << scale;
+  std::string huge = scene("{type: central-difference}");
+  huge.replace(huge.find("E: 1.0e8, nu: 0.0"), 17, "E: 1.0e308, nu: 0.45");
+  const std::string overflow = setupError(huge);
+  EXPECT_NE(overflow.find("scene.yaml:"), std::string::npos) << overflow;
+  EXPECT_NE(overflow.find("E = 1e+308 Pa and nu = 0.45 give Lame constants beyond double range"), std::string::npos)
+      << overflow;
+  std::string many = scene("{type: central-difference}");
+  many.replace(many.find("divisions: [2, 15, 2]"), 21, "divisions: [100000, 100000, 100000]");
+  const std::string nodes = setupError(many);
+  EXPECT_NE(nodes.find("scene.yaml:10: solvers[1].params.mesh.box.divisions give 1.00003e+15 nodes, more than the "
+                       "4294967295 one mesh can number"),
+            std::string::npos) << nodes;
+}
+
 TEST(FemSolverAdapter, ExplicitRefusesStepAboveCritical) {
   FemSolver s;
   Harness h;

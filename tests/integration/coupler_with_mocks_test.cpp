@@ -241,6 +241,28 @@ TEST_F(CouplerRun, NonFiniteEnergyStopsTheRunWithADiagnosis) {
   EXPECT_NE(f.err.find("unstable"), std::string::npos) << f.err;
 }
 
+// A NaN energy in the setup reply, or a critical step that is negative (or
+// NaN, infinite) at setup or later, is a broken solver: a negative step would
+// otherwise read as "no limit" and skip the refusal of a too long dt.
+TEST_F(CouplerRun, BrokenSetupEnergyOrCriticalStepIsRefusedNamingTheSolver) {
+  SceneOptions o;
+  o.right = "{seed: 2, length: 64, nan_at: 0}";
+  auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("solver 'right' reported kinetic = nan at setup, before any step"), std::string::npos) << f.err;
+  o = SceneOptions{};
+  o.left = "{seed: 1, length: 64, critical_dt: -1.0e-4}";
+  f = runCoupler(o, {"--force"});
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("solver 'left' reports a critical time step of -0.0001 s at setup (it must be positive and "
+                       "finite, or 0 for no limit)"),
+            std::string::npos) << f.err;
+  o.left = "{seed: 1, length: 64, critical_dt: 2.0e-3, critical_dt_later: -1.0, critical_dt_from: 35}";
+  f = runCoupler(o);
+  EXPECT_EQ(f.code, 4) << f.err;
+  EXPECT_NE(f.err.find("solver 'left' reports a critical time step of -1 s at exchange 35"), std::string::npos) << f.err;
+}
+
 TEST_F(CouplerRun, StepAboveTheCriticalStepIsRefusedUnlessForced) {
   SceneOptions o;
   o.left = "{seed: 1, length: 64, critical_dt: 1.0e-4}";

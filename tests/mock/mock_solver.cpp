@@ -5,8 +5,9 @@
 // Its scene params: seed, length (doubles in the "state" array it emits),
 // expect_seed/expect_length (the peer pattern it checks what it receives
 // against), compute_seconds, critical_dt (critical_dt_later from exchange
-// critical_dt_from on), and die_at / freeze_at / stall_at / fail_at / nan_at
-// (an exchange number). Besides "state" it emits "digest", "mismatches" and,
+// critical_dt_from on; negative ones are reported as given), and die_at /
+// freeze_at / stall_at / fail_at / nan_at (an exchange number; nan_at: 0 is
+// the setup reply). Besides "state" it emits "digest", "mismatches" and,
 // with count_critical_dt: true, "critical_dt_calls" (how often the host has
 // asked it for its critical step; not checkpointed).
 // Hello-time behaviour comes from the command line, before the scene is read:
@@ -39,7 +40,8 @@ struct Script {
   double criticalDtLater = 0.0;  // 0: critical_dt throughout
   std::uint64_t criticalDtFrom = 0;
   bool countCriticalDt = false;
-  std::uint64_t dieAt = 0, freezeAt = 0, stallAt = 0, failAt = 0, nanAt = 0;
+  std::uint64_t dieAt = 0, freezeAt = 0, stallAt = 0, failAt = 0;
+  std::optional<std::uint64_t> nanAt;  // 0: the setup reply's energy
 };
 
 struct HelloOverrides {
@@ -113,8 +115,8 @@ class MockSolver final : public cosim::wire::Solver {
   std::uint64_t step() const override { return step_; }
   double criticalDt() const override {
     ++criticalDtCalls_;
-    return script_.criticalDtLater > 0.0 && exchange_ >= script_.criticalDtFrom ? script_.criticalDtLater
-                                                                                 : script_.criticalDt;
+    return script_.criticalDtLater != 0.0 && exchange_ >= script_.criticalDtFrom ? script_.criticalDtLater
+                                                                                  : script_.criticalDt;
   }
   cosim::wire::NamedValues energies() const override { return {{"kinetic", energy_}}; }
   std::size_t outputWordsHint() const override { return script_.length + 256; }
@@ -131,15 +133,16 @@ class MockSolver final : public cosim::wire::Solver {
       if (auto s = m.optionalInteger("expect_seed", 0, big)) script_.expectSeed = static_cast<std::uint64_t>(*s);
       script_.expectLength = static_cast<std::size_t>(m.integer("expect_length", static_cast<long>(script_.length), 0, big));
       script_.computeSeconds = m.number("compute_seconds", 0.0, cosim::config::Range::nonNegative());
-      script_.criticalDt = m.number("critical_dt", 0.0, cosim::config::Range::nonNegative());
-      script_.criticalDtLater = m.number("critical_dt_later", 0.0, cosim::config::Range::nonNegative());
+      // Any finite value, so a script can report a broken (negative) step.
+      script_.criticalDt = m.number("critical_dt", 0.0);
+      script_.criticalDtLater = m.number("critical_dt_later", 0.0);
       script_.criticalDtFrom = static_cast<std::uint64_t>(m.integer("critical_dt_from", 0, 0, big));
       script_.countCriticalDt = m.boolean("count_critical_dt", false);
       script_.dieAt = static_cast<std::uint64_t>(m.integer("die_at", 0, 0, big));
       script_.freezeAt = static_cast<std::uint64_t>(m.integer("freeze_at", 0, 0, big));
       script_.stallAt = static_cast<std::uint64_t>(m.integer("stall_at", 0, 0, big));
       script_.failAt = static_cast<std::uint64_t>(m.integer("fail_at", 0, 0, big));
-      script_.nanAt = static_cast<std::uint64_t>(m.integer("nan_at", 0, 0, big));
+      if (auto n = m.optionalInteger("nan_at", 0, big)) script_.nanAt = static_cast<std::uint64_t>(*n);
       m.finish();
       diag.throwIfAny();
     } catch (const cosim::config::ConfigError& e) {
@@ -166,7 +169,7 @@ class MockSolver final : public cosim::wire::Solver {
             if (std::memcmp(&expected[i], &values[i], sizeof(double)) != 0) mismatches += 1.0;
       }
     }
-    energy_ = script_.nanAt != 0 && exchange_ == script_.nanAt ? std::nan("") : 0.5 * static_cast<double>(exchange_);
+    energy_ = script_.nanAt == exchange_ ? std::nan("") : 0.5 * static_cast<double>(exchange_);
     const double calls = static_cast<double>(criticalDtCalls_);
     auto arrays = out.initArrays(script_.countCriticalDt ? 4 : 3);
     cosim::wire::addArray(arrays, 0, "state", 1, state);

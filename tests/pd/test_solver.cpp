@@ -146,6 +146,14 @@ TEST(PdSolverSetup, BadInputNamesKeyAndLine) {
   EXPECT_NE(msg.find(file.string() + ":2"), std::string::npos) << msg;
   msg = setupError(scene("      boundary:\n        - {select: {body: nowhere}, type: fixed}\n"));
   EXPECT_NE(msg.find("nowhere"), std::string::npos) << msg;
+  // K = E / (3 (1 - 2 nu)) overflows: an infinite wave speed would give a
+  // critical step of 0, which the coupler reads as "no limit".
+  s = scene();
+  s.replace(s.find("E: 1.0e9, nu: 0.25"), 18, "E: 1.0e308, nu: 0.48");
+  msg = setupError(s);
+  EXPECT_NE(msg.find("scene.yaml:17: body 'bar': material E, nu, rho give a bulk modulus of inf Pa and a wave speed "
+                     "of inf m/s: both must be finite and positive"),
+            std::string::npos) << msg;
 }
 
 TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {

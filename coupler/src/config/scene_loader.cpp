@@ -175,7 +175,7 @@ void readSchedule(MapReader& root, Scene& scene) {
     m.error("kind", "unknown schedule '" + kind + "' (known: " + ScheduleRegistry::namesJoined() + ")");
     return;
   }
-  scene.schedule = ScheduleRegistry::make(kind, m);
+  scene.schedule = ScheduleRegistry::make(kind, m, scene.solvers);
   m.finish();
 }
 

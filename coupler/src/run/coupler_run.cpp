@@ -384,6 +384,9 @@ class CouplerRun final : public ExchangeDriver {
       const auto& name = pending[i].first;
       auto done = replies[i].message.envelope().getBody().getSetupDone();
       critical[name] = done.getCriticalDt();
+      if (const auto bad = badCriticalStep(name, critical[name], "at setup")) throw Refused(*bad, name);
+      if (const auto bad = nonFiniteEnergy(name, done.getEnergies()))
+        throw Refused(*bad + " at setup, before any step: check its material parameters and initial state", name);
       latest_.insert_or_assign(name, std::move(replies[i].message));
       keepViews(name);
     }
@@ -421,11 +424,9 @@ class CouplerRun final : public ExchangeDriver {
     t.computeS += adv.getComputeSeconds();
     t.communicationS += std::max(0.0, reply.receivedAt - sentAt - adv.getComputeSeconds());
     if (recordsThisExchange()) noteCriticalStep(name, adv.getCriticalDt(), dt);
-    for (auto e : adv.getEnergies())
-      if (!std::isfinite(e.getValue()))
-        throw wire::PeerFault(name, "solver '" + name + "' reported " + e.getName().cStr() + " = " +
-                                        std::to_string(e.getValue()) + " at exchange " + std::to_string(exchange_) +
-                                        " (t = " + std::to_string(time_) + " s): the run is unstable");
+    if (const auto bad = nonFiniteEnergy(name, adv.getEnergies()))
+      throw wire::PeerFault(name, *bad + " at exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) +
+                                      " s): the run is unstable");
     // A reply without energies (not asked for) leaves the last ones in force:
     // the message they point into is kept until energies come again.
     const bool fresh = adv.getEnergies().size() > 0;
@@ -437,10 +438,31 @@ class CouplerRun final : public ExchangeDriver {
     else outputs_[name] = outputsOf(latest_.at(name));
   }
 
+  /// "solver 'x' reported strain = nan" for the first non-finite energy of a reply.
+  static std::optional<std::string> nonFiniteEnergy(const std::string& name, capnp::List<proto::NamedValue>::Reader energies) {
+    for (auto e : energies)
+      if (!std::isfinite(e.getValue()))
+        return "solver '" + name + "' reported " + e.getName().cStr() + " = " + std::to_string(e.getValue());
+    return std::nullopt;
+  }
+
+  /// A critical step is positive, or 0 for "no limit": NaN, infinite or
+  /// negative means the solver's material or state is broken (E = 1e308 gives
+  /// an infinite wave speed), and a dt checked against it would pass unseen.
+  static std::optional<std::string> badCriticalStep(const std::string& name, double critical, const std::string& when) {
+    if (std::isfinite(critical) && critical >= 0.0) return std::nullopt;
+    std::ostringstream m;
+    m << "solver '" << name << "' reports a critical time step of " << critical << " s " << when
+      << " (it must be positive and finite, or 0 for no limit): check its material parameters";
+    return m.str();
+  }
+
   /// A solver's stable step can shrink during a run (a Hertz contact's with
   /// the impact speed): each series row records it, and a step above it is
   /// reported once per solver, on stderr and in the run report.
   void noteCriticalStep(const std::string& name, double critical, double dt) {
+    if (const auto bad = badCriticalStep(name, critical, "at exchange " + std::to_string(exchange_)))
+      throw wire::PeerFault(name, *bad);
     auto& t = timings_[name];
     t.lastCriticalDt = critical;
     if (!(critical > 0.0)) return;

@@ -96,7 +96,7 @@ class Lockstep final : public Schedule {
 };
 
 const bool registered =
-    ScheduleRegistry::add("lockstep", [](config::MapReader& m) { return std::make_unique<Lockstep>(m); });
+    ScheduleRegistry::add("lockstep", [](config::MapReader& m, const std::vector<SolverSpec>&) { return std::make_unique<Lockstep>(m); });
 
 }  // namespace
 }  // namespace cosim::coupler

@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "cosim/config/config_reader.hpp"
+#include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/schedule/schedule.hpp"
 #include "cosim/coupler/schedule/time_step.hpp"
 
@@ -26,11 +27,8 @@ namespace {
 
 class Multirate final : public Schedule {
  public:
-  explicit Multirate(config::MapReader& m) {
-    // One solver, or a list (a pool of DEM workers that sub-cycle together).
-    if (m.has("fine") && m.node("fine").IsSequence()) fine_ = m.stringList("fine");
-    else if (auto one = m.optionalString("fine")) fine_ = {*one};
-    else m.error("fine", "missing: the solver (or list of solvers) that takes the small steps");
+  Multirate(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+    readFine(m, solvers);
     const auto dtText = m.optionalString("dt");
     if (!dtText) m.error("dt", "missing: give the fine step in seconds or 'auto'");
     else if (*dtText == "auto") autoDt_ = true;
@@ -68,11 +66,6 @@ class Multirate final : public Schedule {
 
   bool autoTimeStep() const override { return autoDt_; }
   void resolveTimeStep(const std::map<std::string, double>& criticalDt, bool force) override {
-    for (const auto& name : fine_)
-      if (!criticalDt.count(name))
-        throw std::runtime_error("schedule.fine: '" + name + "' is not one of the scene's solvers");
-    if (fine_.size() >= criticalDt.size())
-      throw std::runtime_error("schedule: multirate needs a coarse solver besides the fine one(s)");
     const CriticalStep fine = tightestStep(criticalDt, [this](const std::string& s) { return isFine(s); });
     const CriticalStep coarse = tightestStep(criticalDt, [this](const std::string& s) { return !isFine(s); });
     if (autoDt_) {
@@ -121,6 +114,26 @@ class Multirate final : public Schedule {
 
  private:
   enum class Sequence { parallel, coarseFirst, fineFirst };
+
+  /// `fine`: one solver, or a list (a pool of DEM workers that sub-cycle
+  /// together); each a declared solver, none twice, and at least one solver
+  /// left to take the coarse step.
+  void readFine(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+    if (m.has("fine") && m.node("fine").IsSequence()) fine_ = m.stringList("fine");
+    else if (auto one = m.optionalString("fine")) fine_ = {*one};
+    else return m.error("fine", "missing: the solver (or list of solvers) that takes the small steps");
+    if (fine_.empty()) return m.error("fine", "an empty list: name the solver(s) that take the small steps");
+    std::string declared;
+    for (const auto& s : solvers) declared += (declared.empty() ? "" : ", ") + s.name;
+    for (auto it = fine_.begin(); it != fine_.end(); ++it) {
+      if (std::find(fine_.begin(), it, *it) != it) m.error("fine", "'" + *it + "' is listed twice");
+      else if (std::none_of(solvers.begin(), solvers.end(), [&](const SolverSpec& s) { return s.name == *it; }))
+        m.error("fine", "'" + *it + "' is not a solver declared under solvers (declared: " + declared + ")");
+    }
+    if (!solvers.empty() && std::all_of(solvers.begin(), solvers.end(), [this](const SolverSpec& s) { return isFine(s.name); }))
+      m.error("fine", "names every solver: multirate needs a coarse solver besides the fine one(s); use lockstep");
+  }
+
   std::uint64_t perStep() const { return sequence_ == Sequence::parallel ? 1 : 2; }
   double coarseDt() const { return dt_ * ratio_; }
   std::uint64_t coarseSteps() const {
@@ -146,7 +159,9 @@ class Multirate final : public Schedule {
 };
 
 const bool registered =
-    ScheduleRegistry::add("multirate", [](config::MapReader& m) { return std::make_unique<Multirate>(m); });
+    ScheduleRegistry::add("multirate", [](config::MapReader& m, const std::vector<SolverSpec>& solvers) {
+      return std::make_unique<Multirate>(m, solvers);
+    });
 
 }  // namespace
 }  // namespace cosim::coupler

@@ -1,6 +1,7 @@
 #include "cosim/fem/material/material.hpp"
 
 #include <cmath>
+#include <sstream>
 
 namespace cosim::fem {
 
@@ -14,6 +15,13 @@ Material::Material(const MaterialParams& params) : params_(params) {
   // Lame constants as defined under Cheng 2022 Eq. 33.
   lambda_ = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
   mu_ = E / (2.0 * (1.0 + nu));
+  // E near the largest double with nu near 1/2 overflows lambda: the wave
+  // speed would be infinite and the critical step 0, which reads "no limit".
+  if (!std::isfinite(lambda_) || !std::isfinite(lambda_ + 2.0 * mu_)) {
+    std::ostringstream m;
+    m << "material: E = " << E << " Pa and nu = " << nu << " give Lame constants beyond double range";
+    throw InputError(m.str());
+  }
 }
 
 Mat6 isotropicTangent(double lambda, double mu) {

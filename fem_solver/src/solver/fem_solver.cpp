@@ -7,7 +7,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
+#include <sstream>
 
 #include "cosim/fem/coupling/surface_export.hpp"
 #include "cosim/fem/material/external_stress.hpp"
@@ -49,6 +51,18 @@ YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
   throw InputError(context.sceneFile + ": no solver named '" + context.instance + "'");
 }
 
+/// Runs make(): an InputError from a library check (an integrator's options,
+/// the mass scale) is reported at the scene section that gave the values, so
+/// the message names the file, line and key path.
+template <typename Make>
+auto atSection(ParamMap& section, Make make) {
+  try {
+    return make();
+  } catch (const InputError& e) {
+    section.fail(section.node(), section.path() + ": " + e.what());
+  }
+}
+
 /// A relative Gmsh file resolves against the scene's directory (`baseDir`), then as given.
 Mesh readMesh(ParamMap p, const std::string& baseDir) {
   if (p.has("gmsh")) {
@@ -65,11 +79,20 @@ Mesh readMesh(ParamMap p, const std::string& baseDir) {
   const Vec3 lo = b.vec3("min"), hi = b.vec3("max");
   const Vec3 n = b.vec3("divisions");
   std::array<int, 3> div{};
+  double nodes = 1.0;
   for (int d = 0; d < 3; ++d) {
-    div[static_cast<std::size_t>(d)] = static_cast<int>(n[d]);
     if (n[d] < 1 || n[d] != std::floor(n[d])) b.fail(b.get("divisions"), b.path() + ".divisions must be positive integers");
     if (!(hi[d] > lo[d])) b.fail(b.get("max"), b.path() + ".max must exceed min in every direction");
+    nodes *= n[d] + 1.0;
   }
+  // Node numbers are 32-bit (Index); checked before any cast or allocation.
+  if (nodes > static_cast<double>(std::numeric_limits<Index>::max())) {
+    std::ostringstream m;
+    m << b.path() << ".divisions give " << nodes << " nodes, more than the " << std::numeric_limits<Index>::max()
+      << " one mesh can number";
+    b.fail(b.get("divisions"), m.str());
+  }
+  for (int d = 0; d < 3; ++d) div[static_cast<std::size_t>(d)] = static_cast<int>(n[d]);
   b.finish();
   p.finish();
   return makeBoxMesh(lo, hi, div);
@@ -159,13 +182,11 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     const FormulationOptions fo = readHourglass(p, formName);
     std::unique_ptr<Material> material;
     std::unique_ptr<ElementFormulation> formulation;
-    try {
+    atSection(p, [&] {
       material = MaterialRegistry::instance().create(matName, mp);
       formulation = FormulationRegistry::instance().create(formName);
       model_ = std::make_unique<Model>(std::move(mesh), std::move(material), std::move(formulation), fo);
-    } catch (const InputError& e) {
-      p.fail(p.node(), path + ": " + e.what());
-    }
+    });
     // Boundary conditions.
     if (p.has("boundary")) {
       YAML::Node list = p.get("boundary");
@@ -280,16 +301,22 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       o.lumpedMass = mass == "lumped";
       o.linear = in.flag("linear", false);
       o.newton = newton;
-      integrator_ = makeNewmark(*model_, o);
+      integrator_ = atSection(in, [&] { return makeNewmark(*model_, o); });
     } else if (integratorType_ == "central-difference") {
       CentralDifferenceOptions o;
       o.damping = in.number("damping", 0.0);
-      model_->setMassScale(in.number("mass_scaling", 1.0));
-      integrator_ = makeCentralDifference(*model_, o);
+      const double massScale = in.number("mass_scaling", 1.0);
+      integrator_ = atSection(in, [&] {
+        model_->setMassScale(massScale);
+        return makeCentralDifference(*model_, o);
+      });
     } else if (integratorType_ == "static" || relaxation) {
       staticNewton_ = newton;
       if (!relaxation) staticLinear_ = in.flag("linear", false);
-      if (relaxation) model_->setMassScale(in.number("mass_scaling", 1.0));
+      if (relaxation) {
+        const double massScale = in.number("mass_scaling", 1.0);
+        atSection(in, [&] { model_->setMassScale(massScale); });
+      }
     } else {
       in.fail(in.get("type"), in.path() + ".type must be newmark, central-difference, static or dynamic-relaxation");
     }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 #include "cosim/pd/scene.hpp"
@@ -141,6 +142,14 @@ struct Reader {
       b.material.poissonRatio = number(m["nu"], "nu");
       if (!(b.material.poissonRatio > -1.0 && b.material.poissonRatio < 0.5))
         fail(m["nu"], where + "'nu' must lie in (-1, 0.5)");
+    }
+    // E near the largest double overflows K = E / (3 (1 - 2 nu)): the wave
+    // speed is infinite, the critical step 0 would read as "no limit".
+    if (const double c = b.material.cflWaveSpeed(); !(std::isfinite(b.material.bulkModulus()) && std::isfinite(c) && c > 0.0)) {
+      std::ostringstream msg;
+      msg << where << "material E, nu, rho give a bulk modulus of " << b.material.bulkModulus() << " Pa and a wave speed of "
+          << c << " m/s: both must be finite and positive";
+      fail(m["E"], msg.str());
     }
     if (b.model == "pmb" && std::abs(b.material.poissonRatio - 0.25) > 1e-12)
       fail(node, where + "bond-based model pmb requires nu = 0.25 (use lps for other values)");

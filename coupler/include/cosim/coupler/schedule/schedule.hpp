@@ -14,6 +14,8 @@ class MapReader;
 
 namespace cosim::coupler {
 
+struct SolverSpec;
+
 struct AdvancePlan {
   std::uint32_t steps = 1;
   double dt = 0.0;
@@ -49,6 +51,9 @@ class Schedule {
   virtual void run(ExchangeDriver& driver) = 0;
 };
 
-using ScheduleRegistry = Registry<Schedule, config::MapReader&>;
+/// Schedules register by the `schedule.kind` a scene uses; the factory sees
+/// the scene's solvers, so the names a schedule refers to are checked with the
+/// rest of the scene (`coupler check`), not when the run starts.
+using ScheduleRegistry = Registry<Schedule, config::MapReader&, const std::vector<SolverSpec>&>;
 
 }  // namespace cosim::coupler
