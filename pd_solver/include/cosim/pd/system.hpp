@@ -94,7 +94,8 @@ class PdSystem {
   /// iterations used (maxIterations when not converged).
   std::size_t relax(double tolerance, std::size_t maxIterations);
 
-  /// CFL step, Hartmann Eqs. 41-42: min over bodies of h / sqrt(K / rho).
+  /// Stable step of velocity Verlet, after Hartmann Eqs. 41-42 with the
+  /// horizon as the length: min over bodies of 0.45 delta / c_p (verlet.cpp).
   double criticalTimeStep() const;
   Energies energies() const;
   double time() const { return time_; }
