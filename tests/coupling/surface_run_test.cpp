@@ -112,6 +112,18 @@ TEST(SurfaceCouplingRun, EnergyGrowthBeyondTheLimitStopsTheRunAsUnstable) {
   EXPECT_NE(done.err.find("max_energy_growth"), std::string::npos) << done.err;
 }
 
+// A coupling that finds the setup replies lacking what the scene names (here a
+// surface the beam does not export) refuses the run before time zero, exit 3,
+// like every other scene error found at setup (it exited 1, "coupler failure").
+TEST(SurfaceCouplingRun, ASurfaceTheBeamDoesNotExportIsRefusedBeforeTimeZero) {
+  C1Run c1;
+  const auto done = c1.run({"--set", "couplings.top.surface=ymax"});
+  EXPECT_EQ(done.code, 3) << done.out << done.err;
+  EXPECT_NE(done.err.find("coupling 'top': solver 'beam' exported no surface 'ymax' at exchange 0"), std::string::npos)
+      << done.err;
+  EXPECT_NE(done.err.find("before time zero"), std::string::npos) << done.err;
+}
+
 TEST(SurfaceCouplingRun, CheckRefusesAKernelWithoutWidth) {
   C1Run c1;
   const auto scene = c1.dir / "bad.yaml";

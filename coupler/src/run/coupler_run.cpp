@@ -390,12 +390,14 @@ class CouplerRun final : public ExchangeDriver {
       latest_.insert_or_assign(name, std::move(replies[i].message));
       keepViews(name);
     }
-    for (const auto& c : scene_.couplings) c->setupReference(outputs_);
-    // dt: auto also respects the stiffness couplings add; a given dt is
-    // checked against the solvers' own steps (the coupling bounds are
-    // conservative estimates).
     auto limits = critical;
-    for (const auto& c : scene_.couplings) c->limitCriticalSteps(limits);
+    refusingSceneErrors([&] {
+      for (const auto& c : scene_.couplings) c->setupReference(outputs_);
+      // dt: auto also respects the stiffness couplings add; a given dt is
+      // checked against the solvers' own steps (the coupling bounds are
+      // conservative estimates).
+      for (const auto& c : scene_.couplings) c->limitCriticalSteps(limits);
+    });
     try {
       scene_.schedule->resolveTimeStep(scene_.schedule->autoTimeStep() ? limits : critical, options_.force);
     } catch (const std::runtime_error& e) {
@@ -414,8 +416,22 @@ class CouplerRun final : public ExchangeDriver {
       timings_[s.name] = p;
     }
     if (resumeFrom_) return restoreFromCheckpoint();
-    runCouplings({names_.begin(), names_.end()});
+    refusingSceneErrors([&] { runCouplings({names_.begin(), names_.end()}); });
     record();
+  }
+
+  /// What the couplings find wrong in the setup replies (a surface or zone the
+  /// scene names that a solver did not export) is the scene's fault, found
+  /// before time zero: a refusal (exit 3), not a coupler failure.
+  template <typename Work>
+  static void refusingSceneErrors(Work work) {
+    try {
+      work();
+    } catch (const wire::PeerFault&) {
+      throw;
+    } catch (const std::runtime_error& e) {
+      throw Refused(std::string(e.what()) + " (before time zero: check the scene's coupling and solver keys)");
+    }
   }
 
   void takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt, double dt) {
