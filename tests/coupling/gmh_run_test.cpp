@@ -6,6 +6,8 @@
 // worker killed mid-run stops the run with a message naming its cells.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <csignal>
 #include <cstring>
 #include <fstream>
@@ -229,11 +231,16 @@ TEST_F(GmhRun, OverlappingWorkersAreRefused) {
 
 TEST_F(GmhRun, ALostWorkerStopsTheRunNamingItsCells) {
   Subprocess coupler({binary("coupler"), "run", scene(1000000), "--no-progress"});
-  // Wait until the pool is running, then kill one worker.
+  // Wait until the pool is running, then kill one worker: this run's own
+  // (its endpoint lies in this test's directory). Other GmhRun tests run
+  // beside it under ctest -j and have a cells_b too; killing theirs left this
+  // run going for its million steps until the 60 s wait gave up.
   pid_t victim = -1;
   for (int i = 0; i < 200 && victim < 0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    for (pid_t p : processesMentioning("--name cells_b")) victim = p;
+    const auto ours = processesMentioning(dir_.string());
+    for (pid_t p : processesMentioning("--name cells_b"))
+      if (std::find(ours.begin(), ours.end(), p) != ours.end()) victim = p;
   }
   ASSERT_GT(victim, 0) << "worker cells_b never started";
   std::this_thread::sleep_for(std::chrono::milliseconds(500));

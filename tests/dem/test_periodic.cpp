@@ -79,20 +79,16 @@ TEST(DemPeriodic, AffinelyDeformedLatticeGivesAnalyticStress) {
   }
 }
 
-TEST(DemPeriodic, NeighbourListMatchesBruteForceOverImages) {
-  std::mt19937_64 rng(2);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  Particles p;
-  const Mat3 h{0.2, 0.05, 0.0, 0.0, 0.18, 0.03, 0.01, 0.0, 0.22};  // triclinic
-  for (int i = 0; i < 1500; ++i) p.add(mul(h, Vec3{u(rng), u(rng), u(rng)}), 0.003 + 0.006 * u(rng), 1000);
+// Builds the list of p in the cell h and checks it against brute force over
+// the 27 neighbouring images; returns the number of pairs.
+std::size_t checkAgainstBruteForce(const Particles& p, const Mat3& h, double skin) {
   PeriodicCell cell;
   cell.enabled = true;
   cell.h = h;
   NeighborList nl;
-  nl.skin = 0.002;
+  nl.skin = skin;
   nl.build(p, &cell);
-  std::size_t brute = 0, listed = 0;
-  const Mat3 hInv = inverse(h);
+  std::size_t brute = 0;
   for (std::size_t i = 0; i < p.size(); ++i)
     for (std::size_t j = i + 1; j < p.size(); ++j) {
       // Nearest image by search over the 27 neighbouring images.
@@ -113,10 +109,40 @@ TEST(DemPeriodic, NeighbourListMatchesBruteForceOverImages) {
         EXPECT_TRUE(found) << i << " " << j;
       }
     }
-  listed = nl.pairs();
-  (void)hInv;
-  std::printf("triclinic periodic cell: %zu pairs listed, %zu by brute force over images\n", listed, brute);
-  EXPECT_EQ(listed, brute);
+  EXPECT_EQ(nl.pairs(), brute);
+  return brute;
+}
+
+TEST(DemPeriodic, NeighbourListMatchesBruteForceOverImages) {
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Particles p;
+  const Mat3 h{0.2, 0.05, 0.0, 0.0, 0.18, 0.03, 0.01, 0.0, 0.22};  // triclinic
+  for (int i = 0; i < 1500; ++i) p.add(mul(h, Vec3{u(rng), u(rng), u(rng)}), 0.003 + 0.006 * u(rng), 1000);
+  const std::size_t pairs = checkAgainstBruteForce(p, h, 0.002);
+  std::printf("triclinic periodic cell: %zu pairs listed and by brute force over images\n", pairs);
+}
+
+TEST(DemPeriodic, AWideCellGetsACappedGridWithTheSamePairs) {
+  // 300 small spheres in 6 clusters 5 cm across, some straddling a face: a grid
+  // of cut-off cells would have 10^6 cells in the 3 m cell, 10^9 in the 30 m
+  // one, and more than memory holds in the 1e6 m one.
+  for (const double side : {3.0, 30.0, 1e6}) {
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const Mat3 h{side, 0.1 * side, 0.0, 0.0, side, 0.0, 0.0, 0.0, side};  // sheared
+    const double edge = 1.0 - 0.025 / side;                                 // a cluster there straddles the face
+    Particles p;
+    for (int c = 0; c < 6; ++c) {
+      const Vec3 centre{c % 2 ? edge : u(rng), c % 3 ? u(rng) : edge, u(rng)};
+      for (int i = 0; i < 50; ++i) {
+        Vec3 f = centre + (0.05 / side) * Vec3{u(rng), u(rng), u(rng)};
+        for (int d = 0; d < 3; ++d) f[d] -= std::floor(f[d]);
+        p.add(mul(h, f), 0.003 + 0.006 * u(rng), 1000);
+      }
+    }
+    EXPECT_GT(checkAgainstBruteForce(p, h, 0.002), 100u) << side;
+  }
 }
 
 TEST(DemPeriodic, RandomPackingUnderPureShearHasSymmetricStress) {

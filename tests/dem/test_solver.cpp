@@ -3,6 +3,7 @@
 #include <capnp/message.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -504,6 +505,140 @@ TEST(DemSolver, ABrokenEnergyBalanceStopsTheRunWithTheNumbers) {
   // Turned off, the same run goes on (and gains energy).
   EXPECT_GT(run("      energy_tolerance: 0\n"), 1.0);
   EXPECT_NE(errorOf(scene(head + "      energy_tolerance: -1\n")).find("energy_tolerance"), std::string::npos);
+}
+
+// Params that name a material, a sphere and a wall around the text under test.
+const std::string kGlass = "      materials: [{name: glass, density: 2500, young: 7.0e10, poisson: 0.3, friction: 0.3}]\n";
+const std::string kOneSphere = "      particles: [{sphere: {position: [0, 0, 0.0101], radius: 0.01}}]\n";
+
+// Each bad value is refused with its file, line and key path, and the message says what is wrong.
+void expectRefused(const std::string& params, const std::string& expected) {
+  const std::string e = errorOf(scene(params));
+  EXPECT_NE(e.find(expected), std::string::npos) << "expected '" << expected << "' in: " << e;
+  EXPECT_EQ(e.rfind("bad.yaml", 0), 0u) << e;
+}
+
+TEST(DemSolver, PackingsBeyondMemoryOrBoxAreRefusedBeforeAllocating) {
+  const auto start = std::chrono::steady_clock::now();
+  expectRefused(kGlass + "      particles:\n        - lattice: {spacing: 0.0024, counts: [100000, 100000, 100000], radius: 0.001}\n",
+                "bad.yaml:8: params.particles[0].lattice.counts: [100000, 100000, 100000] cubic cells make 1e+15 particles");
+  expectRefused(kGlass + "      particles:\n        - lattice: {spacing: 0.0024, counts: [2000000, 2000, 1000], radius: 0.001, kind: fcc}\n",
+                "params.particles[0].lattice.counts: [2000000, 2000, 1000] fcc cells make 1.6e+13 particles");
+  const std::string random = kGlass + "      particles:\n        - random: {min: [0, 0, 0], max: [0.02, 0.02, 0.02], radius: 0.001, ";
+  expectRefused(random + "count: 100000}\n", "bad.yaml:8: params.particles[0].random.count: 100000 spheres need");
+  expectRefused(random + "count: 1000000000000}\n",
+                "params.particles[0].random.count: 1000000000000 spheres make 1e+12 particles");
+  // Each is refused up front, not after minutes of allocating or placing.
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+}
+
+TEST(DemSolver, LargePeriodicCellsGetACappedGridAndWideCellsTheirWidth) {
+  for (const std::string cell : {"[[1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]", "[[1e6, 0, 0], [0, 1e6, 0], [0, 0, 1e6]]",
+                                 "[[1e200, 0, 0], [0, 1, 0], [0, 0, 1]]"}) {
+    DemSolver s;
+    Harness h;
+    h.setup(s, scene(kGlass + "      particles:\n"
+                              "        - sphere: {position: [0.02, 0.5, 0.5], radius: 0.005, velocity: [0.5, 0, 0]}\n"
+                              "        - sphere: {position: [0.03, 0.5, 0.5], radius: 0.005, velocity: [-0.5, 0, 0]}\n"
+                              "      periodic: {cell: " + cell + "}\n"));
+    h.advance(s, 1, 1e-7);
+    EXPECT_EQ(s.system().neighbors.pairs(), 1u) << cell;
+  }
+  // |c x a| overflows for the 1e200 m cell: its widths still come out right.
+  PeriodicCell wide;
+  wide.h = {1e200, 0, 0, 0, 1, 0, 0, 0, 1};
+  EXPECT_EQ(wide.width(0), 1e200);
+  EXPECT_EQ(wide.width(1), 1.0);
+  EXPECT_EQ(wide.width(2), 1.0);
+  expectRefused(kGlass + "      particles:\n"
+                         "        - sphere: {position: [0.02, 0.025, 0.025], radius: 0.005}\n"
+                         "      periodic: {cell: [[0.005, 0, 0], [0, 0.05, 0], [0, 0, 0.05]]}\n",
+                "bad.yaml:9: params.periodic.cell: the cell is 0.005 m wide across face pair 0");
+  expectRefused(kGlass + kOneSphere + "      periodic: {cell: [[1e200, 0, 0], [0, 1e200, 0], [0, 0, 1e200]]}\n",
+                "params.periodic.cell: the cell's volume overflows double range");
+}
+
+TEST(DemSolver, PlaneWallNormalsOfAnyScaleAndStartOverlaps) {
+  for (const std::string n : {"[0, 0, 1e200]", "[0, 0, 1e308]", "[0, 0, 1e-320]", "[0, 0, 3]"}) {
+    DemSolver s;
+    Harness h;
+    h.setup(s, scene(kGlass + kOneSphere + "      walls: [{type: plane, name: floor, point: [0, 0, 0], normal: " + n + "}]\n"));
+    EXPECT_DOUBLE_EQ(s.system().planes[0].normal.z, 1.0) << n;
+  }
+  const std::string wall = "      walls: [{type: plane, name: floor, normal: [0, 0, 1], ";
+  expectRefused(kGlass + kOneSphere + "      walls: [{type: plane, normal: [0, 0, 0]}]\n",
+                "bad.yaml:8: params.walls[0].normal: must be non-zero");
+  // A sphere reaching into the wall, or wholly behind it, would start with a blast.
+  expectRefused(kGlass + kOneSphere + wall + "point: [0, 0, 0.015]}]\n",
+                "particle 0 overlaps plane wall 'floor' by 0.0149 m at start (its centre lies behind the wall)");
+  expectRefused(kGlass + kOneSphere + wall + "point: [0, 0, 0.0002]}]\n",
+                "particle 0 overlaps plane wall 'floor' by 0.0001 m at start (tolerance 0.0001 m, params.overlap_tolerance)");
+  DemSolver s;
+  Harness h;
+  h.setup(s, scene(kGlass + kOneSphere + wall + "point: [0, 0, 0.0002]}]\n      overlap_tolerance: 0.02\n"));
+}
+
+TEST(DemSolver, SilentlyIgnoredParamsAreRefused) {
+  const std::string linear = "      contact: {normal: hertz, tangential: linear}\n";
+  expectRefused(linear + kGlass + kOneSphere,
+                "params.materials: material 'glass' needs kt > 0 for the linear tangential law");
+  DemSolver s;
+  Harness h;
+  h.setup(s, scene(linear + "      materials: [{name: glass, friction: 0.3, kt: 1000}]\n" + kOneSphere));
+  expectRefused("      materials: [{name: glass, kt: -1}]\n" + kOneSphere,
+                "bad.yaml:6: params.materials[0].kt: spring constants must be >= 0");
+  expectRefused("      materials: [{name: glass}, {name: glass, density: 1}]\n" + kOneSphere,
+                "bad.yaml:6: params.materials[1].name: material 'glass' is declared twice");
+  expectRefused(kOneSphere + "      snapshots: {file: x.h5}\n",
+                "bad.yaml:7: params.snapshots.every: snapshots.file is set but every is missing");
+  expectRefused(kOneSphere + "      snapshots: {file: x.h5, every: 0}\n",
+                "params.snapshots.every: snapshots.file is set but every is 0");
+  const std::string wall = "      walls: [{type: plane, normal: [0, 0, 1], ";
+  expectRefused(kOneSphere + wall + "stress: 1e5, gain: 1}]\n",
+                "bad.yaml:7: params.walls[0].stress: only a servo wall (mode: servo) takes stress; this wall is fixed");
+  expectRefused(kOneSphere + wall + "velocity: [0, 0, 1], gain: 1}]\n",
+                "params.walls[0].gain: only a servo wall (mode: servo) takes gain; this wall is velocity");
+  expectRefused(kOneSphere + wall + "mode: servo, stress: 1e5, area: 0.01, gain: 1e-4, velocity: [0, 0, 1]}]\n",
+                "params.walls[0].velocity: a servo wall moves by its stress control; it takes no velocity");
+  expectRefused(kOneSphere + wall + "mode: fixed, velocity: [0, 0, 1]}]\n",
+                "params.walls[0].velocity: a fixed wall (mode: fixed) does not move");
+}
+
+TEST(DemSolver, ListElementsOfTheWrongTypeNameTheirKey) {
+  const std::string mesh = "      walls: [{type: mesh, vertices: [[-1, -1, 0], [1, -1, 0], [1, 1, 0]], triangles: [[0, 1, ";
+  expectRefused(kOneSphere + mesh + "-1]]}]\n", "bad.yaml:7: params.walls[0].triangles[0][2]: -1 is out of range [0, 4294967295]");
+  expectRefused(kOneSphere + mesh + "99999999999]]}]\n", "params.walls[0].triangles[0][2]: 99999999999 is out of range");
+  expectRefused(kOneSphere + mesh + "2.5]]}]\n", "params.walls[0].triangles[0][2]: expected an integer, got '2.5'");
+  expectRefused(kOneSphere + mesh + "a]]}]\n", "params.walls[0].triangles[0][2]: expected an integer, got 'a'");
+  const std::string lattice = "      particles: [{lattice: {spacing: 0.0024, radius: 0.001, counts: ";
+  expectRefused(lattice + "[a, 2, 2]}}]\n", "bad.yaml:6: params.particles[0].lattice.counts[0]: expected an integer, got 'a'");
+  expectRefused(lattice + "[1e12, 1, 1]}}]\n", "params.particles[0].lattice.counts[0]: expected an integer, got '1e12'");
+  expectRefused(lattice + "[2, 2.5, 2]}}]\n", "params.particles[0].lattice.counts[1]: expected an integer, got '2.5'");
+  expectRefused(lattice + "[2, 2, [2]]}}]\n", "params.particles[0].lattice.counts[2]: expected an integer, got a list");
+  expectRefused(lattice + "[2, 0, 2]}}]\n", "params.particles[0].lattice.counts[1]: 0 is out of range [1, ");
+  const std::string random = "      particles: [{random: {min: [0, 0, 0], max: [0.02, 0.02, 0.02], count: 10, radius: ";
+  expectRefused(random + "[a, 0.001]}}]\n", "bad.yaml:6: params.particles[0].random.radius[0]: expected a number, got 'a'");
+  expectRefused(random + "[0.001, .inf]}}]\n", "params.particles[0].random.radius[1]: must be finite, got '.inf'");
+  const std::string drive = kOneSphere + "      zones: [{name: all}]\n      drives: [{zone: all, velocity: {kind: ";
+  expectRefused(drive + "{a: 1}, value: [0, 0, 0]}}]\n", "bad.yaml:8: params.drives[0].velocity.kind: expected a string, got a map");
+  expectRefused(drive + "[constant], value: [0, 0, 0]}}]\n", "params.drives[0].velocity.kind: expected a string, got a list");
+}
+
+TEST(DemSolver, BondStiffnessBoundsTheCriticalStep) {
+  const std::string bonded = kGlass + R"(      particles:
+        - lattice: {spacing: 0.002, counts: [2, 1, 1], radius: 0.001}
+        - sphere: {position: [0.004, 0, 0], radius: 0.001, velocity: [1, 0, 0]}
+      bonds: {stiffness: 1.0e12}
+)";
+  DemSolver s;
+  Harness h;
+  h.setup(s, scene(bonded));
+  // The middle sphere has two bonds: sqrt(m / (2 k 2)).
+  const double m = s.system().particles.mass[1];
+  EXPECT_DOUBLE_EQ(s.criticalDt(), std::sqrt(m / (4.0e12)));
+  const std::string e = errorOf(scene(bonded + "      dt: 5.0e-8\n"));
+  EXPECT_NE(e.find("params.dt: dt = 5e-08 s is above the critical step"), std::string::npos) << e;
+  EXPECT_NE(e.find("set by the bonds: params.bonds.stiffness 1e+12 N/m"), std::string::npos) << e;
 }
 
 }  // namespace

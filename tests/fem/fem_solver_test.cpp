@@ -210,6 +210,133 @@ TEST(FemSolverAdapter, IntegratorMaterialAndMeshLimitsNameTheLine) {
             std::string::npos) << nodes;
 }
 
+/// The setup error of a scene (empty when it sets up), with an optional
+/// weight profile sent by the coupler.
+std::string setupError(const std::string& yaml, const WeightProfile* fromCoupler = nullptr) {
+  FemSolver s;
+  Harness h;
+  if (fromCoupler) {
+    auto wp = h.in.initWeightProfiles(1)[0];
+    wp.setKind(fromCoupler->kind);
+    wp.setAxis(static_cast<std::uint8_t>(fromCoupler->axis));
+    wp.setStart(fromCoupler->start);
+    wp.setEnd(fromCoupler->end);
+  }
+  try {
+    h.setup(s, yaml);
+  } catch (const wire::SolverError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string withBoundary(const std::string& integrator, const std::string& entries);
+
+#define EXPECT_MESSAGE(msg, text) EXPECT_NE((msg).find(text), std::string::npos) << (msg)
+
+// The audit's boundary[].dofs cases: a scalar or an empty list was ignored (the
+// beam ran unclamped), a map or nested list gave bare yaml-cpp text.
+TEST(FemSolverAdapter, BoundaryDofsMustBeANonEmptyListOfAxes) {
+  const std::string prefix = "scene.yaml:17: solvers[1].params.boundary[1].dofs";
+  auto entry = [](const std::string& dofs, const std::string& kind = "displacement") {
+    return withBoundary("{type: central-difference}", "        - {set: ymax, dofs: " + dofs + ", kind: " + kind + "}\n");
+  };
+  EXPECT_MESSAGE(setupError(entry("x")), prefix + ": expected a list of x, y, z, got 'x'");
+  EXPECT_MESSAGE(setupError(entry("x", "velocity")), prefix + ": expected a list of x, y, z, got 'x'");
+  EXPECT_MESSAGE(setupError(entry("[]")), prefix + ": expected a non-empty list of x, y, z, got an empty list");
+  EXPECT_MESSAGE(setupError(entry("[]", "velocity")), prefix + ": expected a non-empty list of x, y, z");
+  EXPECT_MESSAGE(setupError(entry("{x: 1}")), prefix + ": expected a list of x, y, z, got a map");
+  EXPECT_MESSAGE(setupError(entry("[[x]]")), prefix + "[0]: expected a name, got a list (dofs is a list of x, y, z)");
+  EXPECT_MESSAGE(setupError(entry("[x, w]")), prefix + " entries must be x, y or z, not 'w'");
+  EXPECT_EQ(setupError(entry("[x]")), "");
+}
+
+// Entries of coupling.surfaces and keys of user maps are names; anything else
+// is named instead of yaml-cpp's bare conversion text.
+TEST(FemSolverAdapter, SurfaceNamesAndMapKeysMustBeNames) {
+  const std::string p = "scene.yaml:20: solvers[1].params";
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      coupling: {surfaces: [{name: zmax}]}\n")),
+                 p + ".coupling.surfaces[0]: expected a name, got a map (surfaces is a list of face set names)");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      coupling: {surfaces: zmax}\n")),
+                 p + ".coupling.surfaces: expected a list of face set names, got 'zmax'");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      coupling: {zones: {[a]: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}}\n")),
+                 p + ".coupling.zones: expected a name as key, got a list");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      [a, b]: 1\n")), p + ": expected a name as key, got a list");
+  std::string sets = scene("{type: static}");
+  sets.replace(sets.find("clamp: {box"), 5, "{c: 1}");
+  EXPECT_MESSAGE(setupError(sets), "scene.yaml:14: solvers[1].params.sets: expected a name as key, got a map");
+  std::string name = scene("{type: static}");
+  name.replace(name.find("name: other"), 11, "name: [other]");
+  EXPECT_MESSAGE(setupError(name), "scene.yaml:3: solvers[0].name: expected a name, got a list");
+  EXPECT_EQ(setupError(scene("{type: static}", "      coupling: {surfaces: [zmax]}\n")), "");
+}
+
+// A negative periodic tolerance silently dropped the tie; negative ramps were ignored.
+TEST(FemSolverAdapter, PeriodicToleranceAndRampsAreChecked) {
+  const std::string p = "scene.yaml:20: solvers[1].params";
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      periodic: [{axis: x, tolerance: -1}]\n")),
+                 p + ".periodic[0].tolerance must be > 0");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      periodic: [{axis: x, tolerance: 0}]\n")),
+                 p + ".periodic[0].tolerance must be > 0");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      periodic: [{axis: x, ramp: -1}]\n")),
+                 p + ".periodic[0].ramp must be >= 0");
+  EXPECT_MESSAGE(setupError(scene("{type: static}", "      load_ramp: -1\n")), p + ".load_ramp must be >= 0");
+  EXPECT_MESSAGE(setupError(withBoundary("{type: static}", "        - {set: ymax, dofs: [x], value: 0.01, ramp: -1}\n")),
+                 "scene.yaml:17: solvers[1].params.boundary[1].ramp must be >= 0");
+  EXPECT_EQ(setupError(scene("{type: static}", "      periodic: [{axis: x, tolerance: 1.0e-6}]\n      load_ramp: 0.5\n")), "");
+}
+
+// max_iterations <= 0 and tolerance <= 0 surfaced as solver failures at the first step.
+TEST(FemSolverAdapter, IterationLimitsAreCheckedAtSetup) {
+  const std::string p = "scene.yaml:19: solvers[1].params.integrator";
+  for (const std::string type : {"static", "dynamic-relaxation", "newmark"}) {
+    EXPECT_MESSAGE(setupError(scene("{type: " + type + ", max_iterations: 0}")), p + ".max_iterations must be > 0");
+    EXPECT_MESSAGE(setupError(scene("{type: " + type + ", max_iterations: -3}")), p + ".max_iterations must be > 0");
+    EXPECT_MESSAGE(setupError(scene("{type: " + type + ", tolerance: 0}")), p + ".tolerance must be > 0");
+    EXPECT_MESSAGE(setupError(scene("{type: " + type + ", tolerance: -1}")), p + ".tolerance must be > 0");
+    EXPECT_EQ(setupError(scene("{type: " + type + ", tolerance: 1.0e-9, max_iterations: 5}")), "");
+  }
+}
+
+// frequency: 1e308 and value: 1e308 gave NaN energies at setup without a key.
+TEST(FemSolverAdapter, PrescriptionsBeyondDoubleRangeNameTheKey) {
+  const std::string p = "scene.yaml:17: solvers[1].params.boundary[1]";
+  auto entry = [](const std::string& e) { return withBoundary("{type: central-difference}", "        - {set: ymax, " + e + "}\n"); };
+  EXPECT_MESSAGE(setupError(entry("dofs: [x], value: 0.01, frequency: 1e308")),
+                 p + ".frequency: value x 2 pi frequency is not finite (value 0.01, frequency 1e+308 Hz)");
+  EXPECT_MESSAGE(setupError(entry("dofs: [x], value: 1e300, frequency: 1e10, kind: velocity")),
+                 p + ".frequency: value x 2 pi frequency is not finite");
+  // incompatible modes stop at a non-finite residual; full integration reports a non-finite energy.
+  EXPECT_MESSAGE(setupError(entry("dofs: [x], value: 1e308")),
+                 p + ".value: a prescribed displacement of 1e+308 m: the model cannot take it (element ");
+  std::string full = entry("dofs: [x], value: 1e100");
+  full.replace(full.find("incompatible-modes"), 18, "full");
+  EXPECT_MESSAGE(setupError(full), p + ".value: a prescribed displacement of 1e+100 m: it gives a non-finite strain energy");
+  // A displacement that inverts the tip layer when applied alone is no verdict (the ramp brings the rest along).
+  std::string neo = entry("dofs: [y], value: -5.0, ramp: 1.0");
+  neo.replace(neo.find("st-venant-kirchhoff"), 19, "neo-hookean");
+  EXPECT_EQ(setupError(neo), "");
+  EXPECT_MESSAGE(setupError(entry("dofs: [x], value: 1e200, kind: velocity")),
+                 p + ".value: the prescribed velocity of 1e+200 m/s gives a non-finite kinetic energy");
+  EXPECT_MESSAGE(setupError(entry("dofs: [x], value: 1.0, ramp: 1e-320")), p + ".ramp: value / ramp is not a finite velocity");
+  EXPECT_EQ(setupError(entry("dofs: [x], value: 0.5, ramp: 1.0e-3")), "");
+}
+
+// arlequin: in the params was not checked when the coupler sent its own profile.
+TEST(FemSolverAdapter, ArlequinParamsAreCheckedWhenTheCouplerSendsAProfile) {
+  const WeightProfile coupler{"linear", 1, -1.0, 13.0};
+  const std::string p = "scene.yaml:20: solvers[1].params.arlequin: weight profile: ";
+  for (const WeightProfile* sent : {static_cast<const WeightProfile*>(nullptr), &coupler}) {
+    EXPECT_MESSAGE(setupError(scene("{type: static}", "      arlequin: {axis: y, start: 3.0, end: 3.0}\n"), sent),
+                   p + "start and end must differ");
+    EXPECT_MESSAGE(setupError(scene("{type: static}", "      arlequin: {kind: bogus, axis: y, start: 2, end: 4}\n"), sent),
+                   p + "unknown kind 'bogus'");
+    EXPECT_MESSAGE(setupError(scene("{type: static}", "      arlequin: {axis: w, start: 2, end: 4}\n"), sent),
+                   "scene.yaml:20: solvers[1].params.arlequin.axis must be x, y or z");
+    EXPECT_EQ(setupError(scene("{type: static}", "      arlequin: {axis: y, start: -1.0, end: 13.0}\n"), sent), "");
+  }
+}
+
 TEST(FemSolverAdapter, ExplicitRefusesStepAboveCritical) {
   FemSolver s;
   Harness h;

@@ -174,6 +174,60 @@ TEST(PdBodies, BadInputNamesBodyFileAndLine) {
   EXPECT_NE(msg.find("body 'cloud'"), std::string::npos) << msg;
 }
 
+// Sizes are estimated before discretising: the estimate of a box is its exact
+// lattice count; counts that overflow (a box of 1e200 m used to become one
+// particle through lround to int) or exceed the index or memory are refused.
+TEST(PdBodies, LatticeSizeIsCheckedBeforeAllocating) {
+  auto spec = test::box("b", "lps", 10, 4, 3, 1e-3, 3.0);
+  EXPECT_EQ(latticeParticleEstimate(spec), static_cast<double>(discretise(spec).volumes.size()));
+  std::string key;
+  EXPECT_EQ(bodySizeProblem(spec, latticeParticleEstimate(spec), key), "");
+  const auto size = estimateBodySize(spec, 1000.0);
+  EXPECT_NEAR(size.bonds, 1000.0 * 4.0 / 3.0 * std::numbers::pi * 3.5 * 3.5 * 3.5, 1e-6);
+  EXPECT_DOUBLE_EQ(estimateBodySize(spec, 10.0).bonds, 90.0);  // at most every other particle
+  EXPECT_GT(availableMemoryBytes(), 0.0);
+
+  spec.max[0] = 1e200;
+  auto msg = errorOf([&] { discretise(spec); });
+  EXPECT_NE(msg.find("body 'b': 'spacing' 0.001 gives about 1.2e+204 particles"), std::string::npos) << msg;
+  spec.min[0] = -1e308;
+  spec.max[0] = 1e308;
+  msg = errorOf([&] { PdSystem s; s.addBody(spec); });
+  EXPECT_NE(msg.find("gives about inf particles"), std::string::npos) << msg;
+  EXPECT_EQ(bodySizeProblem(spec, latticeParticleEstimate(spec), key).empty(), false);
+  EXPECT_EQ(key, "spacing");
+
+  auto wide = test::box("wide", "lps", 10, 10, 10, 1e-3, 3.0);
+  wide.horizonFactor = 1e6;
+  key.clear();
+  EXPECT_NE(bodySizeProblem(wide, 1e6, key), "");  // 1e12 bonds
+  EXPECT_EQ(key, "horizon");
+}
+
+TEST(PdBodies, EveryParticleNeedsAPartner) {
+  auto spec = test::box("pair", "lps", 2, 1, 1, 1e-3, 3.0);
+  PointCloud one;
+  one.positions = {0, 0, 0};
+  one.volumes = {1e-9};
+  auto msg = errorOf([&] { PdSystem s; s.addBody(spec, one); });
+  EXPECT_NE(msg.find("body 'pair': 1 particle at spacing 0.001"), std::string::npos) << msg;
+  PointCloud apart;
+  apart.positions = {0, 0, 0, 0.01, 0, 0};
+  apart.volumes = {1e-9, 1e-9};
+  PdSystem s;
+  s.addBody(test::box("first", "lps", 3, 3, 3, 1e-3, 3.0));
+  s.addBody(spec, apart);
+  try {
+    s.finalise();
+    FAIL() << "a body of two particles ten spacings apart was accepted";
+  } catch (const EntryError& e) {
+    EXPECT_EQ(e.entry(), EntryError::Entry::Body);
+    EXPECT_EQ(e.index(), 1u);
+    EXPECT_NE(std::string(e.what()).find("body 'pair': particle 0 at (0, 0, 0) has no partner within the horizon 0.003"),
+              std::string::npos) << e.what();
+  }
+}
+
 TEST(PdBodies, PointCloudBodyMatchesLattice) {
   // The same lattice given as a file behaves like the lattice body.
   std::ostringstream text;

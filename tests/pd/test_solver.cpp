@@ -156,6 +156,124 @@ TEST(PdSolverSetup, BadInputNamesKeyAndLine) {
             std::string::npos) << msg;
 }
 
+std::string withReplaced(std::string s, const std::string& from, const std::string& to) {
+  s.replace(s.find(from), from.size(), to);
+  return s;
+}
+
+// Lattices too large for the 32-bit particle index or the memory are refused
+// before anything is allocated, naming the key to change (a horizon of 30 on
+// 27000 particles used to throw std::bad_alloc inside an OpenMP region, a box
+// of 1e200 m used to become one particle).
+TEST(PdSolverSetup, BodyTooLargeIsRefusedNamingSpacingOrHorizon) {
+  auto msg = setupError(withReplaced(scene(), "spacing: 0.001", "spacing: 1.0e-7"));
+  EXPECT_NE(msg.find("scene.yaml:13: body 'bar': 'spacing' 1e-07 gives about 1.92e+14 particles"), std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("4294967295 a 32-bit particle index holds"), std::string::npos) << msg;
+  // 300 x 100 x 100 particles fit; with horizon 100 each bonds to all others.
+  auto s = withReplaced(withReplaced(scene(), "spacing: 0.001", "spacing: 4.0e-5"), "horizon: 3", "horizon: 100");
+  msg = setupError(s);
+  EXPECT_NE(msg.find("scene.yaml:14: body 'bar': 'horizon' 100 gives about 9e+12 bonds for 3e+06 particles ("),
+            std::string::npos) << msg;
+  EXPECT_NE(msg.find("of memory available"), std::string::npos) << msg;
+  msg = setupError(withReplaced(scene(), "max: [0.012,", "max: [1.0e200,"));
+  EXPECT_NE(msg.find("scene.yaml:13: body 'bar': 'spacing' 0.001 gives about 1.6e+204 particles"), std::string::npos)
+      << msg;
+  msg = setupError(withReplaced(withReplaced(scene(), "max: [0.012,", "max: [1.0e308,"), "min: [0,", "min: [-1.0e308,"));
+  EXPECT_NE(msg.find("scene.yaml:13: body 'bar': 'spacing' 0.001 gives about inf particles"), std::string::npos)
+      << msg;
+}
+
+// One particle, or a particle with no partner within the horizon, has no
+// stiffness: refused instead of running with an oversized or loose particle.
+TEST(PdSolverSetup, BodyWithoutBondsIsRefused) {
+  auto msg = setupError(withReplaced(scene(), "spacing: 0.001", "spacing: 1.0"));
+  EXPECT_NE(msg.find("scene.yaml:9: body 'bar': 1 particle at spacing 1 (horizon 3 x spacing): a body needs at "
+                     "least 2; use a 'spacing' finer than the body"),
+            std::string::npos) << msg;
+  msg = setupError(withReplaced(scene(), "horizon: 3", "horizon: 0.5"));
+  EXPECT_NE(msg.find("scene.yaml:9: body 'bar': particle 0 at (0.0005, 0.0005, 0.0005) has no partner within the "
+                     "horizon 0.0005 (0.5 x spacing 0.001, 192 particles)"),
+            std::string::npos) << msg;
+  msg = setupError(scene("",
+                         "        - name: grain\n"
+                         "          shape: sphere\n"
+                         "          center: [1, 1, 1]\n"
+                         "          radius: 0.0001\n"
+                         "          spacing: 0.001\n"
+                         "          model: lps\n"
+                         "          material: {E: 1.0e9, nu: 0.25, rho: 1000}\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'grain': 1 particle at spacing 0.001"), std::string::npos) << msg;
+  // Just above half a spacing every particle has its face neighbours.
+  EXPECT_EQ(setupError(withReplaced(scene(), "horizon: 3", "horizon: 0.6")), "");
+}
+
+TEST(PdSolverSetup, CountsMustBeWholeNumbers) {
+  for (const char* every : {"0.5", "1e30", "0", "-2"}) {
+    const auto msg = setupError(scene(std::string("      output: {file: pd.h5, every: ") + every + "}\n"));
+    EXPECT_NE(msg.find(std::string("scene.yaml:18: 'every' must be a whole number from 1 to 1000000000, got ") + every),
+              std::string::npos) << msg;
+  }
+  for (const char* n : {"0.5", "1e30", "0"}) {
+    const auto msg = setupError(scene(std::string("      quasi_static: {max_iterations: ") + n + "}\n"));
+    EXPECT_NE(msg.find(std::string("scene.yaml:18: 'max_iterations' must be a whole number from 1 to 1000000000, got ") + n),
+              std::string::npos) << msg;
+  }
+  auto msg = setupError(scene("      quasi_static: {tolerance: 0}\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: 'tolerance' must be positive"), std::string::npos) << msg;
+  msg = setupError(scene("      quasi_static: {tolerance: 1e-4, max_iterations: 2e3}\n"));
+  EXPECT_EQ(msg, "");
+}
+
+// Errors found while building the system name the line of the entry and its
+// key path, not just the file.
+TEST(PdSolverSetup, EntryErrorsNameLineAndKeyPath) {
+  auto msg = setupError(scene("      boundary:\n"
+                              "        - {select: {body: bar, min: [-1, -1, -1], max: [0.001, 1, 1]}}\n"
+                              "        - {select: {body: bar, min: [5, 5, 5], max: [6, 6, 6]}, type: fixed}\n"));
+  EXPECT_NE(msg.find("scene.yaml:20: boundary[1]: boundary condition selects no particle of body 'bar' in the box "
+                     "[5, 5, 5] to [6, 6, 6]"),
+            std::string::npos) << msg;
+  msg = setupError(scene("      loads:\n"
+                         "        - {select: {min: [5, 5, 5], max: [6, 6, 6]}, force: [1, 0, 0]}\n"));
+  EXPECT_NE(msg.find("scene.yaml:19: loads[0]: load selects no particle in the box [5, 5, 5] to [6, 6, 6]"),
+            std::string::npos) << msg;
+  msg = setupError(scene("      loads:\n"
+                         "        - select: {body: nowhere}\n"
+                         "          force: [1, 0, 0]\n"));
+  EXPECT_NE(msg.find("scene.yaml:19: select names unknown body 'nowhere'"), std::string::npos) << msg;
+  msg = setupError(scene("", "          influence: banana\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'bar': unknown influence function 'banana' (known: constant, inverse, "
+                     "gaussian)"),
+            std::string::npos) << msg;
+  msg = setupError(withReplaced(scene("", "          influence: inverse\n"), "model: lps", "model: pmb"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'bar': 'influence' applies to model lps only"), std::string::npos) << msg;
+  // Interior particles have no normal: a normal condition on them only would do nothing.
+  msg = setupError(withReplaced(scene("      boundary:\n"
+                                      "        - select: {min: [0.0055, 0.0055, 0.0055], max: [0.0065, 0.0065, 0.0065]}\n"
+                                      "          type: normal\n"),
+                                "max: [0.012, 0.004, 0.004]", "max: [0.012, 0.012, 0.012]"));
+  EXPECT_NE(msg.find("scene.yaml:19: boundary[0]: normal boundary condition selects no surface particle"),
+            std::string::npos) << msg;
+}
+
+TEST(PdSolverSetup, KeysOfAnotherShapeAreRefused) {
+  auto msg = setupError(scene("", "          radius: 0.1\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'bar': 'radius' does not apply to shape box"), std::string::npos) << msg;
+  msg = setupError(scene("", "          file: points.txt\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: body 'bar': 'file' does not apply to shape box"), std::string::npos) << msg;
+  msg = setupError(scene("",
+                         "        - name: ball\n"
+                         "          shape: sphere\n"
+                         "          center: [1, 1, 1]\n"
+                         "          radius: 0.003\n"
+                         "          axis: x\n"
+                         "          spacing: 0.001\n"
+                         "          model: lps\n"
+                         "          material: {E: 1.0e9, nu: 0.25, rho: 1000}\n"));
+  EXPECT_NE(msg.find("scene.yaml:22: body 'ball': 'axis' does not apply to shape sphere"), std::string::npos) << msg;
+}
+
 TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
   Fixture f(scene());
   const double crit = f.solver.criticalDt();

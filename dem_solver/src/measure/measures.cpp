@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <vector>
 
 namespace cosim::dem {
 
@@ -126,6 +127,27 @@ double criticalTimeStep(const DemSystem& s) {
   // here: its partners' own terms limit the step. All driven: no limit (0).
   for (std::size_t i = 0; i < p.size(); ++i)
     if (!p.driven[i]) dt = std::min(dt, particleCriticalStep(s, i, vmax, true));
+  const double bonds = bondCriticalStep(s);
+  return orZero(bonds > 0.0 ? std::min(dt, bonds) : dt);
+}
+
+// The Gershgorin bound on M^-1 K: particle i with bonds b (stiffness k,
+// weighted by w_b as in the force) has omega^2 <= 2 k sum_b w_b / (w_i m_i);
+// dt = 1 / omega, as sqrt(m*/k) for a linear contact (one bond between equal
+// particles gives exactly that).
+double bondCriticalStep(const DemSystem& s) {
+  const BondedSprings& b = s.bonds;
+  const Particles& p = s.particles;
+  if (b.size() == 0 || !(b.stiffness > 0.0)) return 0.0;
+  std::vector<double> load(p.size(), 0.0);
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    const double wb = 0.5 * (p.weight[b.first[k]] + p.weight[b.second[k]]);
+    load[b.first[k]] += wb;
+    load[b.second[k]] += wb;
+  }
+  double dt = std::numeric_limits<double>::max();
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (!p.driven[i] && load[i] > 0.0) dt = std::min(dt, std::sqrt(p.weight[i] * p.mass[i] / (2.0 * b.stiffness * load[i])));
   return orZero(dt);
 }
 

@@ -43,6 +43,17 @@ bool NeighborList::needsRebuild(const Particles& p, const PeriodicCell* cell) co
 }
 
 namespace {
+// Grows the cell size until the grid (cellsAt(size) cells) holds at most about
+// 2N cells, so a sparse, wide cloud or a large periodic cell cannot exhaust
+// memory. Counted in double: a runaway particle (an unstable coupled run) or a
+// huge cell must not overflow the int cell index.
+template <class CellsAt>
+double cappedCellSize(double size, std::size_t n, CellsAt&& cellsAt) {
+  const double cap = static_cast<double>(2 * n + 64);
+  for (double total = cellsAt(size); total > cap; total = cellsAt(size)) size *= total > 1e12 ? std::cbrt(total / cap) : 1.26;
+  return size;
+}
+
 std::string unbinnableMessage(const Particles& p) {
   for (std::size_t i = 0; i < p.size(); ++i)
     for (int d = 0; d < 3; ++d)
@@ -85,14 +96,11 @@ void NeighborList::binParticles(const Particles& p, double cell) {
   if (!finite || !std::isfinite(hi.x - lo.x) || !std::isfinite(hi.y - lo.y) || !std::isfinite(hi.z - lo.z))
     throw std::runtime_error(unbinnableMessage(p));
   // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
-  // Cap the cell count near 2N so a sparse, wide cloud cannot exhaust memory.
-  // Counted in double: a runaway particle (an unstable coupled run) must not overflow the int cell index.
-  for (;;) {
+  cell = cappedCellSize(cell, n, [&](double size) {
     double total = 1.0;
-    for (int d = 0; d < 3; ++d) total *= std::floor((hi[d] - lo[d]) / cell) + 1.0;
-    if (total <= static_cast<double>(2 * n + 64)) break;
-    cell *= total > 1e12 ? std::cbrt(total / static_cast<double>(2 * n + 64)) : 1.26;
-  }
+    for (int d = 0; d < 3; ++d) total *= std::floor((hi[d] - lo[d]) / size) + 1.0;
+    return total;
+  });
   for (int d = 0; d < 3; ++d) dims_[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / cell)) + 1);
   lo_ = lo;
   cell_ = cell;
@@ -159,13 +167,19 @@ void NeighborList::particlesInBox(const Vec3& lo, const Vec3& hi, std::vector<st
 
 void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, double size) {
   const std::size_t n = p.size();
-  for (int d = 0; d < 3; ++d) {
-    const double w = cell.width(d);
-    if (size > 0.5 * w)
-      throw std::invalid_argument("periodic cell too small: width " + std::to_string(w) +
-                                  " m is less than twice the contact cut-off " + std::to_string(size) + " m");
-    dims_[d] = std::max(1, static_cast<int>(std::floor(w / size)));
-  }
+  const Vec3 w{cell.width(0), cell.width(1), cell.width(2)};
+  for (int d = 0; d < 3; ++d)
+    if (!(size <= 0.5 * w[d])) {
+      std::ostringstream m;
+      m << "periodic cell too small: width " << w[d] << " m across face pair " << d
+        << " is less than twice the contact cut-off " << size << " m (params.periodic.cell)";
+      throw std::invalid_argument(m.str());
+    }
+  // Cells at least the cut-off wide; fewer (larger) ones in a cell much wider than the particles need.
+  size = cappedCellSize(size, n, [&w](double s) {
+    return std::max(1.0, std::floor(w.x / s)) * std::max(1.0, std::floor(w.y / s)) * std::max(1.0, std::floor(w.z / s));
+  });
+  for (int d = 0; d < 3; ++d) dims_[d] = std::max(1, static_cast<int>(std::floor(w[d] / size)));
   const Mat3 hInv = inverse(cell.h);
   frac_.resize(n);
   const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];

@@ -111,10 +111,12 @@ void DemSolver::checkDt(double dt, const std::string& where) {
   const double crit = criticalDt();
   if (crit > 0.0 && dt > crit && !settings_.force) {
     const double hybrid = hybridCriticalDt();
-    const std::string whose = hybrid > 0.0 && hybrid <= crit
-                                  ? ", set by the hybrid PD particles' contacts: material '" +
-                                        system_.materials[settings_.hybridMaterial].name + "', their mass rho V"
-                                  : "";
+    std::string whose;
+    if (hybrid > 0.0 && hybrid <= crit)
+      whose = ", set by the hybrid PD particles' contacts: material '" +
+              system_.materials[settings_.hybridMaterial].name + "', their mass rho V";
+    else if (const double bonds = bondCriticalStep(system_); bonds > 0.0 && bonds <= crit)
+      whose = ", set by the bonds: params.bonds.stiffness " + num(system_.bonds.stiffness) + " N/m";
     throw SolverError(Code::BAD_INPUT, where + ": dt = " + num(dt) + " s is above the critical step " + num(crit) +
                                            " s (contact law " + system_.contactLaw().name() + whose +
                                            "); lower dt or set params.force: true");

@@ -4,8 +4,11 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
+
+#include <unistd.h>
 
 #include "cosim/dem/packing/packing.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
@@ -35,6 +38,8 @@ void readMaterials(const YamlSection& params, DemSystem& system) {
                         {"name", "density", "young", "poisson", "restitution", "friction", "kn", "kt"});
     Material mat;
     mat.name = m.text("name", "material" + std::to_string(i));
+    for (const Material& other : system.materials.all())
+      if (other.name == mat.name) m.fail("name", "material '" + mat.name + "' is declared twice");
     mat.density = m.positive("density", mat.density);
     mat.young = m.positive("young", mat.young);
     mat.poisson = m.number("poisson", mat.poisson);
@@ -45,7 +50,8 @@ void readMaterials(const YamlSection& params, DemSystem& system) {
     if (mat.friction < 0.0) m.fail("friction", "must be >= 0");
     mat.kn = m.number("kn", mat.kn);
     mat.kt = m.number("kt", mat.kt);
-    if (mat.kn < 0.0 || mat.kt < 0.0) m.fail("kn", "spring constants must be >= 0");
+    if (mat.kn < 0.0) m.fail("kn", "spring constants must be >= 0");
+    if (mat.kt < 0.0) m.fail("kt", "spring constants must be >= 0");
     system.materials.add(mat);
   }
 }
@@ -68,6 +74,101 @@ void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& veloci
   }
 }
 
+// The most particles one solver takes: what the machine's memory holds at
+// about 1 KB each (particle state, neighbour rows, packing scratch), and what
+// the 32-bit particle indices reach. Checked before a packing allocates.
+std::size_t maxParticles() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
+  const double memory = pages > 0 && pageSize > 0 ? static_cast<double>(pages) * static_cast<double>(pageSize) : 1e12;
+  return static_cast<std::size_t>(std::min(memory / 1024.0, static_cast<double>(std::numeric_limits<std::int32_t>::max())));
+}
+
+void requireRoomFor(double count, const DemSystem& system, const YamlSection& s, const std::string& key,
+                    const std::string& what) {
+  const double before = static_cast<double>(system.particles.size());
+  if (count + before <= static_cast<double>(maxParticles())) return;
+  std::ostringstream m;
+  m << what << " make " << count << " particles";
+  if (before > 0.0) m << " (" << count + before << " with those before)";
+  m << ": more than the " << maxParticles() << " this machine holds (about 1 KB of memory each, at most 2^31)";
+  s.fail(key, m.str());
+}
+
+void readLattice(const YamlSection& s, DemSystem& system) {
+  const YAML::Node c = s.node("counts");
+  if (!c || !c.IsSequence() || c.size() != 3) s.fail("counts", "expected [nx, ny, nz]");
+  std::array<int, 3> counts{};
+  double total = 1.0;
+  std::string shown;
+  for (std::size_t d = 0; d < 3; ++d) {
+    const std::string at = s.where(c[d]) + ": " + s.path() + ".counts[" + std::to_string(d) + "]";
+    const long n = toInteger(c[d], at, 1, std::numeric_limits<long>::max());
+    total *= static_cast<double>(n);
+    counts[d] = static_cast<int>(std::min<long>(n, std::numeric_limits<int>::max()));  // checked below
+    shown += (d == 0 ? "[" : ", ") + std::to_string(n);
+  }
+  const double spacing = s.positive("spacing");
+  const double radius = s.positive("radius");
+  const std::string kind = s.text("kind", "cubic");
+  if (kind != "cubic" && kind != "fcc") s.fail("kind", "unknown lattice kind '" + kind + "' (known: cubic, fcc)");
+  requireRoomFor(kind == "fcc" ? 4.0 * total : total, system, s, "counts", shown + "] " + kind + " cells");
+  SphereSet set = latticePacking(s.vec3("origin", {}), spacing, counts, radius, kind);
+  // Optional random displacement (fraction of the half gap) to break the lattice's symmetry.
+  const double jitter = s.number("jitter", 0.0);
+  if (jitter < 0.0 || jitter > 1.0) s.fail("jitter", "must lie in [0, 1]");
+  if (jitter > 0.0) {
+    const double gap = 0.5 * (spacing * (kind == "fcc" ? std::sqrt(0.5) : 1.0) - 2.0 * radius);
+    if (gap <= 0.0) s.fail("jitter", "the lattice has no gap to jitter in");
+    std::mt19937_64 rng(static_cast<std::uint64_t>(s.integer("seed", 1)));
+    std::uniform_real_distribution<double> u(-jitter * gap / std::sqrt(3.0), jitter * gap / std::sqrt(3.0));
+    for (Vec3& centre : set.centres) centre += Vec3{u(rng), u(rng), u(rng)};
+  }
+  addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+}
+
+// Random sequential addition jams near a solid fraction of 0.38 (0.6 is
+// beyond any random packing); the attempts are capped so that a packing that
+// does not fit stops within seconds.
+constexpr double kPackableFraction = 0.6;
+
+void requirePackable(const YamlSection& s, long count, double rmin, double rmax, const Vec3& size) {
+  const double box = size.x * size.y * size.z;
+  // Mean r^3 of radii uniform in [rmin, rmax]: (rmax^4 - rmin^4) / (4 (rmax - rmin)).
+  const double meanR3 = rmax > rmin ? (std::pow(rmax, 4) - std::pow(rmin, 4)) / (4.0 * (rmax - rmin)) : rmin * rmin * rmin;
+  const double solid = static_cast<double>(count) * 4.0 / 3.0 * std::numbers::pi * meanR3;
+  if (solid <= kPackableFraction * box) return;
+  std::ostringstream m;
+  m << count << " spheres need " << solid << " m^3 of solid, " << solid / box << " x the box's " << box
+    << " m^3; no random packing fills more than " << kPackableFraction << " of it: lower count or enlarge the box";
+  s.fail("count", m.str());
+}
+
+void readRandom(const YamlSection& s, DemSystem& system) {
+  const YAML::Node r = s.node("radius");
+  double rmin = 0.0, rmax = 0.0;
+  if (r && r.IsSequence() && r.size() == 2) {
+    rmin = toNumber(r[0], s.where(r[0]) + ": " + s.path() + ".radius[0]");
+    rmax = toNumber(r[1], s.where(r[1]) + ": " + s.path() + ".radius[1]");
+  } else {
+    rmin = rmax = s.positive("radius");
+  }
+  if (!(rmin > 0.0) || rmax < rmin) s.fail("radius", "need 0 < rmin <= rmax");
+  const long count = s.integer("count", 0);
+  if (count < 1) s.fail("count", "must be >= 1");
+  requireRoomFor(static_cast<double>(count), system, s, "count", std::to_string(count) + " spheres");
+  const Vec3 lo = s.vec3("min"), hi = s.vec3("max");
+  for (int d = 0; d < 3; ++d)
+    if (hi[d] - lo[d] < 2 * rmax) s.fail("max", "box smaller than one sphere along axis " + std::to_string(d));
+  requirePackable(s, count, rmin, rmax, hi - lo);
+  const auto n = static_cast<std::size_t>(count);
+  const SphereSet set = randomPacking(lo, hi, rmin, rmax, n, static_cast<std::uint64_t>(s.integer("seed", 1)),
+                                      std::min(1000 * n + 1000, 10'000'000 + 50 * n));
+  if (set.radii.size() < n)
+    s.fail("count", "only " + std::to_string(set.radii.size()) + " of " + std::to_string(count) +
+                        " spheres fit in the box without overlap; lower count or enlarge the box");
+  addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+}
+
 void readParticles(const YamlSection& params, DemSystem& system, const std::string& baseDir) {
   // A DEM side of only PD bodies (their hybrid surface particles meet each
   // other here, Hartmann Sec. 3) has no spheres of its own.
@@ -81,50 +182,10 @@ void readParticles(const YamlSection& params, DemSystem& system, const std::stri
     const YamlSection src(list[i], params.file(), path, {"lattice", "random", "file", "sphere"});
     if (list[i].size() != 1) throw SceneError(src.where(list[i]) + ": " + path + ": give exactly one source kind");
     if (src.has("lattice")) {
-      const YamlSection s = src.child("lattice", {"origin", "spacing", "counts", "radius", "kind", "material", "velocity", "jitter", "seed"});
-      const YAML::Node c = s.node("counts");
-      std::array<int, 3> counts{};
-      if (!c || !c.IsSequence() || c.size() != 3) s.fail("counts", "expected [nx, ny, nz]");
-      for (std::size_t d = 0; d < 3; ++d) counts[d] = c[d].as<int>();
-      if (counts[0] < 1 || counts[1] < 1 || counts[2] < 1) s.fail("counts", "must be >= 1");
-      const double spacing = s.positive("spacing");
-      const double radius = s.positive("radius");
-      const std::string kind = s.text("kind", "cubic");
-      if (kind != "cubic" && kind != "fcc") s.fail("kind", "unknown lattice kind '" + kind + "' (known: cubic, fcc)");
-      SphereSet set = latticePacking(s.vec3("origin", {}), spacing, counts, radius, kind);
-      // Optional random displacement (fraction of the half gap) to break the lattice's symmetry.
-      const double jitter = s.number("jitter", 0.0);
-      if (jitter < 0.0 || jitter > 1.0) s.fail("jitter", "must lie in [0, 1]");
-      if (jitter > 0.0) {
-        const double gap = 0.5 * (spacing * (kind == "fcc" ? std::sqrt(0.5) : 1.0) - 2.0 * radius);
-        if (gap <= 0.0) s.fail("jitter", "the lattice has no gap to jitter in");
-        std::mt19937_64 rng(static_cast<std::uint64_t>(s.integer("seed", 1)));
-        std::uniform_real_distribution<double> u(-jitter * gap / std::sqrt(3.0), jitter * gap / std::sqrt(3.0));
-        for (Vec3& centre : set.centres) centre += Vec3{u(rng), u(rng), u(rng)};
-      }
-      addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+      readLattice(src.child("lattice", {"origin", "spacing", "counts", "radius", "kind", "material", "velocity", "jitter", "seed"}),
+                  system);
     } else if (src.has("random")) {
-      const YamlSection s = src.child("random", {"min", "max", "radius", "count", "seed", "material", "velocity"});
-      const YAML::Node r = s.node("radius");
-      double rmin = 0.0, rmax = 0.0;
-      if (r && r.IsSequence() && r.size() == 2) {
-        rmin = r[0].as<double>();
-        rmax = r[1].as<double>();
-      } else {
-        rmin = rmax = s.positive("radius");
-      }
-      if (!(rmin > 0.0) || rmax < rmin) s.fail("radius", "need 0 < rmin <= rmax");
-      const long count = s.integer("count", 0);
-      if (count < 1) s.fail("count", "must be >= 1");
-      const Vec3 lo = s.vec3("min"), hi = s.vec3("max");
-      for (int d = 0; d < 3; ++d)
-        if (hi[d] - lo[d] < 2 * rmax) s.fail("max", "box smaller than one sphere along axis " + std::to_string(d));
-      const SphereSet set = randomPacking(lo, hi, rmin, rmax, static_cast<std::size_t>(count),
-                                          static_cast<std::uint64_t>(s.integer("seed", 1)));
-      if (set.radii.size() < static_cast<std::size_t>(count))
-        s.fail("count", "only " + std::to_string(set.radii.size()) + " of " + std::to_string(count) +
-                            " spheres fit in the box without overlap");
-      addSpheres(set, materialOf(s, system), s.vec3("velocity", {}), system, s);
+      readRandom(src.child("random", {"min", "max", "radius", "count", "seed", "material", "velocity"}), system);
     } else if (src.has("file")) {
       const YamlSection s = src.child("file", {"path", "material", "velocity"});
       const std::string file = wire::resolveScenePath(s.text("path"), baseDir);
@@ -152,6 +213,35 @@ void readParticles(const YamlSection& params, DemSystem& system, const std::stri
   if (system.particles.size() == 0 && !hybridOnly) params.fail("particles", "no particles were created");
 }
 
+// The unit normal of a plane wall, scaled first so that |n| neither
+// overflows nor underflows (for a normal n, the same bits as n / |n|).
+Vec3 unitNormal(const YamlSection& s) {
+  const Vec3 n = powerOfTwoScaled(s.vec3("normal"));
+  if (!(norm(n) > 0.0)) s.fail("normal", "must be non-zero");
+  return (1.0 / norm(n)) * n;
+}
+
+// mode: fixed | velocity | servo, each with only its own keys.
+void readWallMotion(const YamlSection& s, PlaneWall& w) {
+  w.velocity = s.vec3("velocity", {});
+  const std::string mode = s.text("mode", norm(w.velocity) > 0.0 ? "velocity" : "fixed");
+  if (mode != "fixed" && mode != "velocity" && mode != "servo")
+    s.fail("mode", "unknown wall mode '" + mode + "' (known: fixed, velocity, servo)");
+  if (mode != "servo")
+    for (const char* key : {"stress", "area", "gain"})
+      if (s.has(key)) s.fail(key, "only a servo wall (mode: servo) takes " + std::string(key) + "; this wall is " + mode);
+  if (mode == "fixed" && norm(w.velocity) > 0.0)
+    s.fail("velocity", "a fixed wall (mode: fixed) does not move; drop velocity or use mode: velocity");
+  if (mode == "fixed") w.mode = PlaneWall::Mode::fixed;
+  if (mode == "velocity") w.mode = PlaneWall::Mode::velocity;
+  if (mode != "servo") return;
+  if (s.has("velocity")) s.fail("velocity", "a servo wall moves by its stress control; it takes no velocity");
+  w.mode = PlaneWall::Mode::servo;
+  w.servoStress = s.number("stress");
+  w.servoArea = s.positive("area");
+  w.servoGain = s.positive("gain");
+}
+
 void readWalls(const YamlSection& params, DemSystem& system) {
   const YAML::Node list = params.node("walls");
   if (!list) return;
@@ -168,21 +258,8 @@ void readWalls(const YamlSection& params, DemSystem& system) {
       PlaneWall w;
       w.name = s.text("name", "wall" + std::to_string(i));
       w.point = s.vec3("point", {});
-      const Vec3 n = s.vec3("normal");
-      if (!(norm(n) > 0.0)) s.fail("normal", "must be non-zero");
-      w.normal = (1.0 / norm(n)) * n;
-      w.velocity = s.vec3("velocity", {});
-      const std::string mode = s.text("mode", norm(w.velocity) > 0.0 ? "velocity" : "fixed");
-      if (mode == "fixed") w.mode = PlaneWall::Mode::fixed;
-      else if (mode == "velocity") w.mode = PlaneWall::Mode::velocity;
-      else if (mode == "servo") {
-        w.mode = PlaneWall::Mode::servo;
-        w.servoStress = s.number("stress");
-        w.servoArea = s.positive("area");
-        w.servoGain = s.positive("gain");
-      } else {
-        s.fail("mode", "unknown wall mode '" + mode + "' (known: fixed, velocity, servo)");
-      }
+      w.normal = unitNormal(s);
+      readWallMotion(s, w);
       w.material = materialOf(s, system);
       system.planes.push_back(w);
     } else if (type == "mesh") {
@@ -199,7 +276,13 @@ void readWalls(const YamlSection& params, DemSystem& system) {
       for (std::size_t k = 0; k < t.size(); ++k) {
         if (!t[k].IsSequence() || t[k].size() != 3)
           throw SceneError(s.where(t[k]) + ": " + path + ".triangles[" + std::to_string(k) + "]: expected [a, b, c]");
-        g.triangles.push_back({t[k][0].as<std::uint32_t>(), t[k][1].as<std::uint32_t>(), t[k][2].as<std::uint32_t>()});
+        std::array<std::uint32_t, 3> tri{};
+        for (std::size_t c = 0; c < 3; ++c)
+          tri[c] = static_cast<std::uint32_t>(
+              toInteger(t[k][c], s.where(t[k][c]) + ": " + path + ".triangles[" + std::to_string(k) + "][" +
+                                     std::to_string(c) + "]",
+                        0, std::numeric_limits<std::uint32_t>::max()));
+        g.triangles.push_back(tri);
       }
       g.material = materialOf(s, system);
       try {
@@ -254,12 +337,29 @@ void readDrives(const YamlSection& params, RunSettings& settings) {
     const YAML::Node v = d.node("velocity");
     if (!v || !v.IsMap() || !v["kind"])
       d.fail("velocity", "expected a map with kind: " + VelocityHistoryRegistry::namesJoined());
-    const std::string kind = v["kind"].as<std::string>();
+    const std::string kind = toText(v["kind"], d.where(v["kind"]) + ": " + path + ".velocity.kind");
     if (!VelocityHistoryRegistry::has(kind))
       d.fail("velocity", "unknown velocity history '" + kind + "' (known: " + VelocityHistoryRegistry::namesJoined() + ")");
     spec.history = VelocityHistoryRegistry::make(kind, d);
     settings.drives.push_back(spec);
   }
+}
+
+// The cell must be finite and at least twice the contact cut-off 2 r_max + skin
+// wide (each pair meets one image); the neighbour list checks it again as the cell deforms.
+void checkCellSize(const YamlSection& per, const DemSystem& system) {
+  if (!std::isfinite(system.cell.volume()))
+    per.fail("cell", "the cell's volume overflows double range: cell vectors too long");
+  double rmax = 0.0;
+  for (double r : system.particles.radius) rmax = std::max(rmax, r);
+  const double cutoff = 2.0 * rmax + system.neighbors.skin;
+  for (int d = 0; d < 3; ++d)
+    if (const double w = system.cell.width(d); !(w >= 2.0 * cutoff)) {
+      std::ostringstream m;
+      m << "the cell is " << w << " m wide across face pair " << d << " (vectors " << "abc"[(d + 1) % 3] << ", "
+        << "abc"[(d + 2) % 3] << "), less than twice the contact cut-off 2 r_max + skin = " << cutoff << " m";
+      per.fail("cell", m.str());
+    }
 }
 
 }  // namespace
@@ -274,10 +374,10 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
   const YAML::Node solvers = root["solvers"];
   if (!solvers || !solvers.IsSequence()) throw SceneError(sceneFile + ": no 'solvers:' list");
   for (const auto& s : solvers)
-    if (s["name"] && s["name"].as<std::string>() == instance) {
-      if (s["kind"] && s["kind"].as<std::string>() != "dem")
+    if (s["name"] && s["name"].IsScalar() && s["name"].Scalar() == instance) {
+      if (s["kind"] && !(s["kind"].IsScalar() && s["kind"].Scalar() == "dem"))
         throw SceneError(sceneFile + ":" + std::to_string(s["kind"].Mark().line + 1) + ": solver '" + instance +
-                         "' has kind '" + s["kind"].as<std::string>() + "', not dem");
+                         "' has kind '" + (s["kind"].IsScalar() ? s["kind"].Scalar() : "(not a name)") + "', not dem");
       YAML::Node params = s["params"];
       if (!params) throw SceneError(sceneFile + ":" + std::to_string(s.Mark().line + 1) + ": solver '" + instance +
                                     "' has no params: section");
@@ -309,6 +409,11 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   if (normal == "linear")
     for (const Material& m : system.materials.all())
       if (!(m.kn > 0.0)) params.fail("materials", "material '" + m.name + "' needs kn > 0 for the linear law");
+  if (tangential == "linear")
+    for (const Material& m : system.materials.all())
+      if (!(m.kt > 0.0))
+        params.fail("materials", "material '" + m.name + "' needs kt > 0 for the linear tangential law "
+                                 "(params.contact.tangential: linear; tangential: none has no tangential spring)");
   readParticles(params, system, baseDir.empty() ? std::filesystem::path(sceneFile).parent_path().string() : baseDir);
   readWalls(params, system);
   double rmin = std::numeric_limits<double>::max();
@@ -340,6 +445,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
     system.cell.enabled = true;
     system.cell.h = matrix("cell", true);  // rows of the YAML are the cell vectors a, b, c
     if (!(system.cell.volume() > 0.0)) per.fail("cell", "cell vectors must be right-handed with positive volume");
+    checkCellSize(per, system);
     if (per.has("velocity_gradient")) system.cell.velocityGradient = matrix("velocity_gradient", false);
   }
   if (params.has("bonds")) {
@@ -355,6 +461,9 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   settings.snapshotEvery = snap.integer("every", 0);
   if (settings.snapshotEvery < 0) snap.fail("every", "must be >= 0");
   settings.snapshotFile = snap.text("file", "");
+  if (snap.has("file") && settings.snapshotEvery == 0)
+    snap.fail("every", "snapshots.file is set but every is " + std::string(snap.has("every") ? "0" : "missing") +
+                           ": give every: N (a snapshot every N steps) or drop the snapshots section");
   readZones(params, settings);
   readDrives(params, settings);
   // hybrid: {material: name}: the material of hybrid PD particles (Hartmann Sec. 3);
@@ -373,6 +482,21 @@ void checkParticles(const DemSystem& system, double overlapTolerance, const std:
     throw SceneError(context + ": particles " + std::to_string(p.id[o->i]) + " and " + std::to_string(p.id[o->j]) +
                      " overlap by " + std::to_string(o->overlap) + " m at start (tolerance " +
                      std::to_string(o->allowed) + " m, params.overlap_tolerance)");
+  checkPlaneOverlaps(system, overlapTolerance, context);
+}
+
+void checkPlaneOverlaps(const DemSystem& system, double overlapTolerance, const std::string& context) {
+  const Particles& p = system.particles;
+  for (const PlaneWall& w : system.planes)
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double overlap = p.radius[i] - w.distance(p.x[i]), allowed = overlapTolerance * p.radius[i];
+      if (!(overlap > allowed)) continue;
+      std::ostringstream m;
+      m << context << ": particle " << p.id[i] << " overlaps plane wall '" << w.name << "' by " << overlap
+        << " m at start" << (overlap > p.radius[i] ? " (its centre lies behind the wall)" : "") << " (tolerance "
+        << allowed << " m, params.overlap_tolerance)";
+      throw SceneError(m.str());
+    }
 }
 
 std::optional<ExcessOverlap> excessOverlap(const DemSystem& system, double overlapTolerance,

@@ -1,6 +1,7 @@
 #include "cosim/dem/solver/yaml_section.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace cosim::dem {
 
@@ -11,13 +12,48 @@ YAML::Node orEmptyMap(const YAML::Node& n) {
   if (!n.IsDefined() || n.IsNull()) return YAML::Node(YAML::NodeType::Map);
   return n;
 }
+
+// A value as a message shows it.
+std::string shown(const YAML::Node& n) {
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  return n.IsSequence() ? "a list" : n.IsMap() ? "a map" : "nothing";
+}
 }  // namespace
+
+double toNumber(const YAML::Node& n, const std::string& where) {
+  double v = 0.0;
+  try {
+    v = n.as<double>();
+  } catch (const YAML::Exception&) {
+    throw SceneError(where + ": expected a number, got " + shown(n));
+  }
+  if (!std::isfinite(v)) throw SceneError(where + ": must be finite, got " + shown(n));
+  return v;
+}
+
+long toInteger(const YAML::Node& n, const std::string& where, long lo, long hi) {
+  long v = 0;
+  try {
+    v = n.as<long>();
+  } catch (const YAML::Exception&) {
+    throw SceneError(where + ": expected an integer, got " + shown(n));
+  }
+  if (v < lo || v > hi)
+    throw SceneError(where + ": " + std::to_string(v) + " is out of range [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "]");
+  return v;
+}
+
+std::string toText(const YAML::Node& n, const std::string& where) {
+  if (!n || !n.IsScalar()) throw SceneError(where + ": expected a string, got " + shown(n));
+  return n.Scalar();
+}
 
 YamlSection::YamlSection(YAML::Node node, std::string file, std::string path, const std::set<std::string>& allowed)
     : node_(orEmptyMap(node)), file_(std::move(file)), path_(std::move(path)) {
   if (!node_.IsMap()) throw SceneError(where(node_) + ": " + path_ + ": expected a map");
   for (const auto& kv : node_) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "(a list or map as key)";
     if (!allowed.count(key)) {
       std::string known;
       for (const auto& a : allowed) known += (known.empty() ? "" : ", ") + a;
@@ -43,16 +79,8 @@ double YamlSection::number(const std::string& key, double fallback) const {
 }
 
 double YamlSection::number(const std::string& key) const {
-  const YAML::Node n = node_[key];
-  if (!n) fail(key, "required number is missing");
-  double v = 0.0;
-  try {
-    v = n.as<double>();
-  } catch (const YAML::Exception&) {
-    fail(key, "expected a number, got '" + (n.IsScalar() ? n.Scalar() : std::string("a list or map")) + "'");
-  }
-  if (!std::isfinite(v)) fail(key, "must be finite");
-  return v;
+  if (!has(key)) fail(key, "required number is missing");
+  return toNumber(node_[key], where(key) + ": " + path_ + "." + key);
 }
 
 double YamlSection::positive(const std::string& key, double fallback) const {
@@ -67,11 +95,8 @@ double YamlSection::positive(const std::string& key) const {
 
 long YamlSection::integer(const std::string& key, long fallback) const {
   if (!has(key)) return fallback;
-  try {
-    return node_[key].as<long>();
-  } catch (const YAML::Exception&) {
-    fail(key, "expected an integer");
-  }
+  return toInteger(node_[key], where(key) + ": " + path_ + "." + key, std::numeric_limits<long>::min(),
+                   std::numeric_limits<long>::max());
 }
 
 bool YamlSection::flag(const std::string& key, bool fallback) const {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <sstream>
 
@@ -36,10 +37,15 @@ YAML::Node findParams(const wire::SetupContext& context, std::string& path) {
   } catch (const YAML::Exception& e) {
     throw InputError(context.sceneFile + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
-  const YAML::Node solvers = root["solvers"];
+  const YAML::Node solvers = root.IsMap() ? root["solvers"] : YAML::Node();
   if (!solvers || !solvers.IsSequence()) throw InputError(context.sceneFile + ": no 'solvers' list");
   for (std::size_t i = 0; i < solvers.size(); ++i) {
-    if (solvers[i]["name"] && solvers[i]["name"].as<std::string>() == context.instance) {
+    if (!solvers[i].IsMap()) continue;  // the coupler names a malformed entry
+    const YAML::Node name = solvers[i]["name"];
+    if (name && (name.IsMap() || name.IsSequence()))
+      throw InputError(context.sceneFile + ":" + std::to_string(name.Mark().line + 1) + ": solvers[" + std::to_string(i) +
+                       "].name: expected a name, got a " + (name.IsMap() ? "map" : "list"));
+    if (name && name.IsScalar() && name.Scalar() == context.instance) {
       path = "solvers[" + std::to_string(i) + "].params";
       const YAML::Node params = solvers[i]["params"];
       if (!params)
@@ -128,6 +134,119 @@ FormulationOptions readHourglass(ParamMap& p, const std::string& formulation) {
   return fo;
 }
 
+/// `boundary[i].dofs`: a non-empty list of x, y, z; all three when absent.
+std::vector<int> readDofs(ParamMap& b) {
+  if (!b.has("dofs")) return {0, 1, 2};
+  const std::string key = b.path() + ".dofs";
+  const std::vector<std::string> names = b.names("dofs", "x, y, z");
+  if (names.empty()) b.fail(b.get("dofs"), key + ": expected a non-empty list of x, y, z, got an empty list");
+  std::vector<int> dirs;
+  for (const std::string& name : names) {
+    const int k = directionIndex(name);
+    if (k < 0) b.fail(b.get("dofs"), key + " entries must be x, y or z, not '" + name + "'");
+    dirs.push_back(k);
+  }
+  return dirs;
+}
+
+/// kind, value, ramp (>= 0) and frequency (>= 0, a sine instead of the ramp)
+/// of a boundary entry.
+Prescribed readPrescription(ParamMap& b) {
+  const std::string key = b.path();
+  const std::string kind = b.text("kind", "displacement");
+  if (kind != "displacement" && kind != "velocity") b.fail(b.get("kind"), key + ".kind must be displacement or velocity");
+  Prescribed pr;
+  pr.kind = kind == "velocity" ? Prescribed::Kind::velocity : Prescribed::Kind::displacement;
+  pr.amplitude = b.number("value", 0.0);
+  pr.ramp = b.number("ramp", 0.0);
+  if (pr.ramp < 0.0) b.fail(b.get("ramp"), key + ".ramp must be >= 0 (s)");
+  // frequency: a sinusoidal time function (cyclic loading, Liu 2016 Sec. 3.3) instead of the ramp.
+  pr.frequency = b.number("frequency", 0.0);
+  if (pr.frequency < 0.0) b.fail(b.get("frequency"), key + ".frequency must be >= 0 (Hz)");
+  if (pr.frequency > 0.0 && b.has("ramp"))
+    b.fail(b.get("ramp"), key + ".ramp cannot be combined with frequency (the sine starts from zero displacement)");
+  return pr;
+}
+
+/// The largest speed a prescription reaches: value for a velocity, value x
+/// 2 pi frequency for a sine displacement, value / ramp for a ramped one.
+double peakVelocity(const Prescribed& p) {
+  if (p.kind == Prescribed::Kind::velocity) return p.amplitude;
+  if (p.frequency > 0.0) return p.amplitude * 2.0 * std::numbers::pi * p.frequency;
+  return p.ramp > 0.0 ? p.amplitude / p.ramp : 0.0;
+}
+
+/// The diagonal of the mesh's bounding box.
+double meshSize(const Mesh& mesh) {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (std::size_t n = 0; n < mesh.numNodes(); ++n) {
+    lo = lo.cwiseMin(mesh.node(static_cast<Index>(n)));
+    hi = hi.cwiseMax(mesh.node(static_cast<Index>(n)));
+  }
+  return (hi - lo).norm();
+}
+
+/// Why moving the given dofs by u (the rest held) breaks the strain energy, or
+/// empty: a non-finite energy, or an element or material failure under a
+/// displacement over a million times the mesh size (a smaller one may just
+/// invert an element when applied alone: no verdict).
+std::string strainProblem(const Model& model, const std::vector<Index>& nodes, const std::vector<int>& dirs, double u) {
+  std::vector<double> x(model.numDofs(), 0.0), f;
+  for (Index n : nodes)
+    for (int d : dirs) x[3 * static_cast<std::size_t>(n) + static_cast<std::size_t>(d)] = u;
+  ElementEnergy e;
+  try {
+    model.internalForce(x, f, e);
+  } catch (const SolveError& ex) {
+    return std::abs(u) > 1e6 * meshSize(model.mesh()) ? std::string("the model cannot take it (") + ex.what() + ")" : "";
+  } catch (const InputError&) {
+    return {};
+  }
+  return std::isfinite(e.strain) && std::isfinite(e.hourglass) ? "" : "it gives a non-finite strain energy";
+}
+
+std::string show(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+/// Refuses a prescription beyond double range before it turns into NaN:
+/// value x 2 pi frequency, value / ramp, and the kinetic and strain energy of
+/// the entry's nodes moved at its peak velocity and by its value.
+void checkPrescribedRange(const Model& model, ParamMap& b, const std::vector<Index>& nodes,
+                          const std::vector<int>& dirs, const Prescribed& p) {
+  const std::string key = b.path();
+  const double omega = 2.0 * std::numbers::pi * p.frequency;
+  if (!std::isfinite(omega) || !std::isfinite(p.amplitude * omega))
+    b.fail(b.get("frequency"), key + ".frequency: value x 2 pi frequency is not finite (value " + show(p.amplitude) +
+                                   ", frequency " + show(p.frequency) + " Hz)");
+  const double v = peakVelocity(p);
+  if (!std::isfinite(v)) b.fail(b.get("ramp"), key + ".ramp: value / ramp is not a finite velocity");
+  double kinetic = 0.0;
+  for (Index n : nodes) kinetic += 0.5 * model.lumpedMass()[n] * v * v * static_cast<double>(dirs.size());
+  if (!std::isfinite(kinetic))
+    b.fail(b.get("value"), key + ".value: the prescribed velocity of " + show(v) + " m/s gives a non-finite kinetic energy");
+  if (p.kind != Prescribed::Kind::displacement || p.amplitude == 0.0) return;
+  if (const std::string why = strainProblem(model, nodes, dirs, p.amplitude); !why.empty())
+    b.fail(b.get("value"), key + ".value: a prescribed displacement of " + show(p.amplitude) + " m: " + why);
+}
+
+/// `arlequin:` (Cheng 2022 Eq. 25), validated even when the coupler's profile wins.
+std::optional<WeightProfile> readArlequin(ParamMap& p) {
+  if (!p.has("arlequin")) return std::nullopt;
+  ParamMap a = p.map("arlequin");
+  WeightProfile profile;
+  profile.kind = a.text("kind", "half-cosine");
+  profile.axis = directionIndex(a.text("axis"));
+  if (profile.axis < 0) a.fail(a.get("axis"), a.path() + ".axis must be x, y or z");
+  profile.start = a.number("start");
+  profile.end = a.number("end");
+  a.finish();
+  if (const std::string why = profile.problem(); !why.empty()) a.fail(a.node(), a.path() + ": weight profile: " + why);
+  return profile;
+}
+
 }  // namespace
 
 FemSolver::FemSolver() = default;
@@ -154,7 +273,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       YAML::Node sets = p.get("sets");
       if (!sets.IsMap()) p.fail(sets, path + ".sets must be a map of name: {box: {min, max}}");
       for (const auto& kv : sets) {
-        const std::string name = kv.first.as<std::string>();
+        const std::string name = p.keyName(kv.first, path + ".sets");
         ParamMap s(kv.second, context.sceneFile, path + ".sets." + name);
         ParamMap box = s.map("box");
         const Vec3 lo = box.vec3("min"), hi = box.vec3("max");
@@ -187,46 +306,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       formulation = FormulationRegistry::instance().create(formName);
       model_ = std::make_unique<Model>(std::move(mesh), std::move(material), std::move(formulation), fo);
     });
-    // Boundary conditions.
-    if (p.has("boundary")) {
-      YAML::Node list = p.get("boundary");
-      if (!list.IsSequence()) p.fail(list, path + ".boundary must be a list");
-      for (std::size_t i = 0; i < list.size(); ++i) {
-        const std::string key = path + ".boundary[" + std::to_string(i) + "]";
-        ParamMap b(list[i], context.sceneFile, key);
-        const std::string set = b.text("set");
-        std::vector<Index> nodes;
-        try {
-          nodes = model_->mesh().nodeSet(set, key + ".set");
-        } catch (const InputError& e) {
-          b.fail(b.get("set"), e.what());
-        }
-        std::vector<int> dirs;
-        YAML::Node dofs = b.has("dofs") ? b.get("dofs") : YAML::Node();
-        if (!dofs) {
-          dirs = {0, 1, 2};
-        } else {
-          for (const auto& d : dofs) {
-            const int k = directionIndex(d.as<std::string>());
-            if (k < 0) b.fail(dofs, key + ".dofs entries must be x, y or z");
-            dirs.push_back(k);
-          }
-        }
-        const std::string kind = b.text("kind", "displacement");
-        if (kind != "displacement" && kind != "velocity") b.fail(b.get("kind"), key + ".kind must be displacement or velocity");
-        const double value = b.number("value", 0.0), ramp = b.number("ramp", 0.0);
-        // frequency: a sinusoidal time function (cyclic loading, Liu 2016 Sec. 3.3) instead of the ramp.
-        const double frequency = b.number("frequency", 0.0);
-        if (frequency < 0.0) b.fail(b.get("frequency"), key + ".frequency must be >= 0 (Hz)");
-        if (frequency > 0.0 && b.has("ramp"))
-          b.fail(b.get("ramp"), key + ".ramp cannot be combined with frequency (the sine starts from zero displacement)");
-        b.finish();
-        for (Index n : nodes)
-          for (int d : dirs)
-            model_->prescribe(n, d, kind == "velocity" ? Prescribed::Kind::velocity : Prescribed::Kind::displacement,
-                              value, ramp, frequency);
-      }
-    }
+    if (p.has("boundary")) readBoundary(p);
     if (p.has("periodic")) readPeriodic(p);
     // Loads.
     if (p.has("loads")) {
@@ -270,7 +350,9 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       }
       iv.finish();
     }
-    model_->setLoadRamp(p.number("load_ramp", 0.0));
+    const double loadRamp = p.number("load_ramp", 0.0);
+    if (loadRamp < 0.0) p.fail(p.get("load_ramp"), path + ".load_ramp must be >= 0 (s)");
+    model_->setLoadRamp(loadRamp);
     // Integrator.
     ParamMap in = p.map("integrator");
     integratorType_ = in.text("type");
@@ -279,6 +361,8 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     const bool relaxation = integratorType_ == "dynamic-relaxation";
     newton.tolerance = in.number("tolerance", relaxation ? relaxation_.tolerance : newton.tolerance);
     newton.maxIterations = in.integer("max_iterations", relaxation ? relaxation_.maxIterations : newton.maxIterations);
+    if (!(newton.tolerance > 0.0)) in.fail(in.get("tolerance"), in.path() + ".tolerance must be > 0");
+    if (newton.maxIterations <= 0) in.fail(in.get("max_iterations"), in.path() + ".max_iterations must be > 0");
     relaxation_.tolerance = newton.tolerance;
     relaxation_.maxIterations = newton.maxIterations;
     newton.linearSolver = in.text("linear_solver", newton.linearSolver);
@@ -326,19 +410,9 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     in.finish();
     // Arlequin weighting 1 - w (Cheng 2022 Eq. 25): a profile sent by the
     // coupler at setup wins over one in the params.
-    bool haveProfile = false;
-    WeightProfile profile;
-    if (p.has("arlequin")) {
-      ParamMap a = p.map("arlequin");
-      profile.kind = a.text("kind", "half-cosine");
-      const std::string axis = a.text("axis");
-      profile.axis = directionIndex(axis);
-      if (profile.axis < 0) a.fail(a.get("axis"), a.path() + ".axis must be x, y or z");
-      profile.start = a.number("start");
-      profile.end = a.number("end");
-      a.finish();
-      haveProfile = true;
-    }
+    const std::optional<WeightProfile> own = readArlequin(p);
+    bool haveProfile = own.has_value();
+    WeightProfile profile = own.value_or(WeightProfile{});
     if (context.inputs.hasWeightProfiles() && context.inputs.getWeightProfiles().size() > 0) {
       const auto wp = context.inputs.getWeightProfiles()[0];
       profile.kind = wp.getKind().cStr();
@@ -359,13 +433,12 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     zones_.clear();
     if (p.has("coupling")) {
       ParamMap cp = p.map("coupling");
-      YAML::Node list = cp.has("surfaces") ? cp.get("surfaces") : YAML::Node(YAML::NodeType::Sequence);
-      if (!list.IsSequence()) cp.fail(list, cp.path() + ".surfaces must be a list of face set names");
+      const std::vector<std::string> names = cp.has("surfaces") ? cp.names("surfaces", "face set names") : std::vector<std::string>{};
       if (cp.has("zones")) {
         YAML::Node zl = cp.get("zones");
         if (!zl.IsMap()) cp.fail(zl, cp.path() + ".zones must be a map of name: {box: {min, max}}");
         for (const auto& kv : zl) {
-          const std::string zname = kv.first.as<std::string>();
+          const std::string zname = cp.keyName(kv.first, cp.path() + ".zones");
           ParamMap z(kv.second, context.sceneFile, cp.path() + ".zones." + zname);
           ParamMap box = z.map("box");
           const Vec3 lo = box.vec3("min"), hi = box.vec3("max");
@@ -378,12 +451,11 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
           }
         }
       }
-      for (const auto& s : list) {
-        const std::string name = s.as<std::string>();
+      for (std::size_t i = 0; i < names.size(); ++i) {
         try {
-          surfaces_.emplace_back(name, model_->mesh(), model_->mesh().faceSet(name, cp.path() + ".surfaces"));
+          surfaces_.emplace_back(names[i], model_->mesh(), model_->mesh().faceSet(names[i], cp.path() + ".surfaces"));
         } catch (const InputError& e) {
-          cp.fail(s, e.what());
+          cp.fail(cp.get("surfaces")[i], e.what());
         }
       }
       // The quadrature of the CG-enriched force map: every exchange (true), or
@@ -430,6 +502,27 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   }
 }
 
+void FemSolver::readBoundary(ParamMap& p) {
+  YAML::Node list = p.get("boundary");
+  if (!list.IsSequence()) p.fail(list, p.path() + ".boundary must be a list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    ParamMap b(list[i], p.file(), p.path() + ".boundary[" + std::to_string(i) + "]");
+    const std::string set = b.text("set");
+    std::vector<Index> nodes;
+    try {
+      nodes = model_->mesh().nodeSet(set, b.path() + ".set");
+    } catch (const InputError& e) {
+      b.fail(b.get("set"), e.what());
+    }
+    const std::vector<int> dirs = readDofs(b);
+    const Prescribed pr = readPrescription(b);
+    b.finish();
+    checkPrescribedRange(*model_, b, nodes, dirs, pr);
+    for (Index n : nodes)
+      for (int d : dirs) model_->prescribe(n, d, pr.kind, pr.amplitude, pr.ramp, pr.frequency);
+  }
+}
+
 void FemSolver::readPeriodic(ParamMap& p) {
   YAML::Node list = p.get("periodic");
   if (!list.IsSequence()) p.fail(list, p.path() + ".periodic must be a list");
@@ -442,6 +535,7 @@ void FemSolver::readPeriodic(ParamMap& p) {
   for (std::size_t i = 0; i < list.size(); ++i) {
     ParamMap e(list[i], p.file(), p.path() + ".periodic[" + std::to_string(i) + "]");
     const double tol = e.number("tolerance", 1e-8 * (hi - lo).norm());
+    if (!(tol > 0.0)) e.fail(e.get("tolerance"), e.path() + ".tolerance must be > 0 (a length)");
     std::vector<Index> minNodes, maxNodes;
     Vec3 offset = Vec3::Zero();
     if (e.has("axis")) {  // the two faces of the bounding box normal to the axis
@@ -469,6 +563,7 @@ void FemSolver::readPeriodic(ParamMap& p) {
     const std::string kind = e.text("kind", "displacement");
     if (kind != "displacement" && kind != "velocity") e.fail(e.get("kind"), e.path() + ".kind must be displacement or velocity");
     const double ramp = e.number("ramp", 0.0);
+    if (ramp < 0.0) e.fail(e.get("ramp"), e.path() + ".ramp must be >= 0 (s)");
     e.finish();
     try {
       model_->tie(matchPeriodicNodes(mesh, minNodes, maxNodes, offset, tol), jump,

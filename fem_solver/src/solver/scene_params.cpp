@@ -4,6 +4,16 @@
 
 namespace cosim::fem {
 
+namespace {
+/// What a YAML node is, for `expected ..., got <this>` messages.
+std::string describe(const YAML::Node& n) {
+  if (n.IsMap()) return "a map";
+  if (n.IsSequence()) return "a list";
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  return "nothing";
+}
+}  // namespace
+
 ParamMap::ParamMap(YAML::Node node, std::string file, std::string path)
     : node_(std::move(node)), file_(std::move(file)), path_(std::move(path)) {
   if (!node_.IsMap()) fail(node_, path_ + " must be a map");
@@ -95,9 +105,28 @@ ParamMap ParamMap::map(const std::string& key) {
   return ParamMap(n, file_, path_ + "." + key);
 }
 
+std::vector<std::string> ParamMap::names(const std::string& key, const std::string& what) {
+  YAML::Node n = get(key);
+  const std::string name = path_ + "." + key;
+  if (!n.IsSequence()) fail(n, name + ": expected a list of " + what + ", got " + describe(n));
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsScalar())
+      fail(n[i], name + "[" + std::to_string(i) + "]: expected a name, got " + describe(n[i]) + " (" + key +
+                     " is a list of " + what + ")");
+    out.push_back(n[i].Scalar());
+  }
+  return out;
+}
+
+std::string ParamMap::keyName(const YAML::Node& key, const std::string& of) const {
+  if (!key.IsScalar()) fail(key, of + ": expected a name as key, got " + describe(key));
+  return key.Scalar();
+}
+
 void ParamMap::finish() const {
   for (const auto& kv : node_) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = keyName(kv.first, path_);
     if (!used_.count(key)) fail(kv.first, "unknown key '" + key + "' in " + path_);
   }
 }

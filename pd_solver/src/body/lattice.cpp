@@ -1,6 +1,15 @@
 // Regular-lattice discretisation of analytic shapes: cell centres of a cubic
 // lattice of spacing h whose cell centre lies inside the shape, volume h^3.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <iomanip>
+#include <limits>
+#include <numbers>
+#include <sstream>
 #include <stdexcept>
 
 #include "cosim/pd/body.hpp"
@@ -42,7 +51,106 @@ void bounds(const BodySpec& spec, Vec3& lo, Vec3& hi) {
   fail(spec, "a points body has no analytic bounds");
 }
 
+constexpr double kMaxParticles = 4294967295.0;  // particle indices are std::uint32_t
+// Particle arrays, model and output fields per particle; neighbour list and
+// the model's per-bond arrays per bond (LPS keeps about ten values, PMB two).
+constexpr double kBytesPerParticle = 512.0;
+double bytesPerBond(const BodySpec& spec) { return spec.model == "pmb" ? 40.0 : 104.0; }
+
+// Cells of spacing h across an extent (at least one; NaN stays NaN).
+double axisCount(double extent, double h) {
+  const double n = std::round(extent / h);
+  return n < 1.0 ? 1.0 : n;
+}
+
+double atLeastOne(double n) { return n < 1.0 ? 1.0 : n; }
+
+std::string gigabytes(double bytes) {
+  std::ostringstream s;
+  s.precision(3);
+  s << bytes / 1e9 << " GB";
+  return s.str();
+}
+
+// Estimated counts: whole numbers below a million, else three digits.
+std::string amount(double n) {
+  std::ostringstream s;
+  if (n < 1e6) s << std::llround(n);
+  else s << std::setprecision(3) << n;
+  return s.str();
+}
+
+std::string particleProblem(const BodySpec& spec, double particles, double memory) {
+  std::ostringstream why;
+  if (spec.shape == Shape::Points) why << "'file' holds " << amount(particles) << " particles";
+  else why << "'spacing' " << spec.spacing << " gives about " << amount(particles) << " particles";
+  if (std::isfinite(particles)) why << " (" << gigabytes(particles * kBytesPerParticle) << ")";
+  why << ": more than the " << static_cast<std::uint64_t>(kMaxParticles) << " a 32-bit particle index holds or the "
+      << gigabytes(memory) << " of memory available; use "
+      << (spec.shape == Shape::Points ? "fewer points" : "a coarser spacing or a smaller body");
+  return why.str();
+}
+
+std::string bondProblem(const BodySpec& spec, const BodySize& size, double memory) {
+  std::ostringstream why;
+  why << "'horizon' " << spec.horizonFactor << " gives about " << amount(size.bonds) << " bonds for "
+      << amount(size.particles) << " particles (" << gigabytes(size.bytes) << "): more than the " << gigabytes(memory)
+      << " of memory available; use a smaller horizon or a coarser spacing";
+  return why.str();
+}
+
 }  // namespace
+
+BodySize estimateBodySize(const BodySpec& spec, double particles) {
+  const double m = spec.horizonFactor + 0.5;
+  const double family = std::min(4.0 / 3.0 * std::numbers::pi * m * m * m, std::max(particles - 1.0, 0.0));
+  BodySize size;
+  size.particles = particles;
+  size.bonds = particles * family;
+  size.bytes = particles * kBytesPerParticle + size.bonds * bytesPerBond(spec);
+  return size;
+}
+
+double latticeParticleEstimate(const BodySpec& spec) {
+  const double h = spec.spacing;
+  switch (spec.shape) {
+    case Shape::Box:
+      return axisCount(spec.max[0] - spec.min[0], h) * axisCount(spec.max[1] - spec.min[1], h) *
+             axisCount(spec.max[2] - spec.min[2], h);
+    case Shape::Sphere:
+      return atLeastOne(4.0 / 3.0 * std::numbers::pi * std::pow(spec.radius / h, 3));
+    case Shape::Cylinder:  // cross-section cells times layers along the axis
+      return atLeastOne(std::numbers::pi * std::pow(spec.radius / h, 2)) * axisCount(spec.length, h);
+    case Shape::Points:
+      break;
+  }
+  return 0.0;
+}
+
+double availableMemoryBytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long pageSize = sysconf(_SC_PAGE_SIZE);
+  double bytes = pages > 0 && pageSize > 0 ? static_cast<double>(pages) * static_cast<double>(pageSize)
+                                           : std::numeric_limits<double>::infinity();
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
+    bytes = std::min(bytes, static_cast<double>(limit.rlim_cur));
+  return bytes;
+}
+
+std::string bodySizeProblem(const BodySpec& spec, double particles, std::string& key) {
+  const double memory = availableMemoryBytes();
+  if (!(particles <= kMaxParticles && particles * kBytesPerParticle <= memory)) {
+    key = spec.shape == Shape::Points ? "file" : "spacing";
+    return particleProblem(spec, particles, memory);
+  }
+  const BodySize size = estimateBodySize(spec, particles);
+  if (!(size.bytes <= memory)) {
+    key = "horizon";
+    return bondProblem(spec, size, memory);
+  }
+  return {};
+}
 
 bool insideShape(const BodySpec& spec, const double x[3], double tol) {
   switch (spec.shape) {
@@ -85,26 +193,27 @@ PointCloud discretise(const BodySpec& spec) {
     if (spec.shape == Shape::Cylinder) requirePositive(spec, spec.length, "length");
     if (spec.axis < 0 || spec.axis > 2) fail(spec, "cylinder axis must be x, y or z");
   }
+  std::string key;
+  if (const auto why = bodySizeProblem(spec, latticeParticleEstimate(spec), key); !why.empty()) fail(spec, why);
   Vec3 lo{}, hi{};
   bounds(spec, lo, hi);
   const double h = spec.spacing;
-  int n[3];
-  for (int k = 0; k < 3; ++k) {
-    // Boxes are filled with whole cells; other shapes use the cells whose
-    // centre is inside, on a lattice centred on the bounding box.
-    n[k] = static_cast<int>(std::lround((hi[k] - lo[k]) / h));
-    if (n[k] < 1) n[k] = 1;
-  }
+  // Boxes are filled with whole cells; other shapes use the cells whose
+  // centre is inside, on a lattice centred on the bounding box. The counts
+  // are bounded by the size check above.
+  double n[3];
+  for (int k = 0; k < 3; ++k) n[k] = axisCount(hi[k] - lo[k], h);
+  const auto count = [&n](int k) { return static_cast<long>(n[k]); };
   PointCloud cloud;
   const double vol = h * h * h;
-  for (int i = 0; i < n[0]; ++i)
-    for (int j = 0; j < n[1]; ++j)
-      for (int l = 0; l < n[2]; ++l) {
-        const int idx[3] = {i, j, l};
+  for (long i = 0; i < count(0); ++i)
+    for (long j = 0; j < count(1); ++j)
+      for (long l = 0; l < count(2); ++l) {
+        const long idx[3] = {i, j, l};
         double x[3];
         for (int k = 0; k < 3; ++k) {
           const double mid = 0.5 * (lo[k] + hi[k]);
-          x[k] = mid + (idx[k] - 0.5 * (n[k] - 1)) * h;
+          x[k] = mid + (static_cast<double>(idx[k]) - 0.5 * (n[k] - 1.0)) * h;
         }
         if (spec.shape != Shape::Box && !insideShape(spec, x, 1e-12 * h)) continue;
         cloud.positions.insert(cloud.positions.end(), x, x + 3);

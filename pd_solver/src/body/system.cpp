@@ -1,6 +1,7 @@
 // Assembly of a PdSystem: bodies, neighbour lists, models, particle sets.
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -91,6 +92,15 @@ std::size_t PdSystem::addBody(const BodySpec& spec, const PointCloud& cloud) {
   double h = spec.spacing;
   if (spec.shape == Shape::Points && !(h > 0.0)) h = std::cbrt(mean);
   if (!(h > 0.0) || !std::isfinite(h)) fail("spacing must be positive");
+  if (cloud.volumes.size() < 2) {
+    std::ostringstream why;
+    why << "1 particle at spacing " << h << " (horizon " << spec.horizonFactor
+        << " x spacing): a body needs at least 2; use "
+        << (spec.shape == Shape::Points ? "a 'file' with more points" : "a 'spacing' finer than the body");
+    fail(why.str());
+  }
+  std::string key;
+  if (const auto why = bodySizeProblem(spec, static_cast<double>(cloud.volumes.size()), key); !why.empty()) fail(why);
   checkOverlap(particles_, bodies_, spec, cloud, h);
 
   Body body;
@@ -138,17 +148,60 @@ std::vector<std::uint32_t> PdSystem::select(const Selection& where) const {
   return out;
 }
 
+// A particle with no partner has no stiffness (LPS: zero weighted volume).
+// Partners at delta + h/2 that round-off puts a hair inside count with a
+// fraction of about 1e-13 and do not count here.
+void PdSystem::buildBody(std::size_t b) {
+  Body& body = bodies_[b];
+  body.bonds = buildBonds(particles_, body.begin, body.end, body.horizon, body.spacing,
+                          body.spec.options.partialVolume);
+  const auto& bonds = body.bonds;
+  for (std::size_t q = 0; q < bonds.rows(); ++q) {
+    double partners = 0.0;
+    for (std::size_t k = bonds.offset[q]; k < bonds.offset[q + 1]; ++k) partners += bonds.volumeFraction[k];
+    if (partners > 1e-6) continue;
+    const double* x = &particles_.reference[3 * (body.begin + q)];
+    std::ostringstream why;
+    why << "body '" << body.spec.name << "': particle " << q << " at (" << x[0] << ", " << x[1] << ", " << x[2]
+        << ") has no partner within the horizon " << body.horizon << " (" << body.spec.horizonFactor
+        << " x spacing " << body.spacing << ", " << bonds.rows()
+        << " particles): every particle needs one; use a larger 'horizon'";
+    throw EntryError(EntryError::Entry::Body, b, why.str());
+  }
+  try {
+    body.model->initialise(context(b));
+  } catch (const std::invalid_argument& e) {
+    throw EntryError(EntryError::Entry::Body, b, "body '" + body.spec.name + "': " + e.what());
+  }
+}
+
+std::vector<std::uint32_t> PdSystem::resolve(const Selection& where, EntryError::Entry entry,
+                                             std::size_t index) const {
+  std::vector<std::uint32_t> out;
+  try {
+    out = select(where);
+  } catch (const std::invalid_argument& e) {
+    throw EntryError(entry, index, e.what());
+  }
+  if (out.empty()) {
+    std::ostringstream why;
+    why << (entry == EntryError::Entry::Load ? "load" : "boundary condition") << " selects no particle";
+    if (!where.body.empty()) why << " of body '" << where.body << "'";
+    if (where.hasBox)
+      why << " in the box [" << where.min[0] << ", " << where.min[1] << ", " << where.min[2] << "] to ["
+          << where.max[0] << ", " << where.max[1] << ", " << where.max[2] << "]";
+    throw EntryError(entry, index, why.str());
+  }
+  return out;
+}
+
 void PdSystem::finalise() {
   if (finalised_) return;
   if (bodies_.empty()) throw std::invalid_argument("no PD bodies defined");
-  for (auto& body : bodies_) {
-    body.bonds = buildBonds(particles_, body.begin, body.end, body.horizon, body.spacing,
-                            body.spec.options.partialVolume);
-    body.model->initialise(context(static_cast<std::size_t>(&body - bodies_.data())));
-  }
-  for (auto& bc : bcs_) {
-    bc.particles = select(bc.where);
-    if (bc.particles.empty()) throw std::invalid_argument("boundary condition selects no particle");
+  for (std::size_t b = 0; b < bodies_.size(); ++b) buildBody(b);
+  for (std::size_t k = 0; k < bcs_.size(); ++k) {
+    auto& bc = bcs_[k];
+    bc.particles = resolve(bc.where, EntryError::Entry::Boundary, k);
     if (bc.type == Constraint::NormalOnly) {
       // Interior particles of the set have no normal and stay free.
       std::vector<std::uint32_t> kept;
@@ -158,13 +211,13 @@ void PdSystem::finalise() {
         kept.push_back(i);
         bc.normals.insert(bc.normals.end(), n, n + 3);
       }
+      if (kept.empty())
+        throw EntryError(EntryError::Entry::Boundary, k,
+                         "normal boundary condition selects no surface particle (interior particles have no normal)");
       bc.particles = std::move(kept);
     }
   }
-  for (auto& load : loads_) {
-    load.particles = select(load.where);
-    if (load.particles.empty()) throw std::invalid_argument("load selects no particle");
-  }
+  for (std::size_t k = 0; k < loads_.size(); ++k) loads_[k].particles = resolve(loads_[k].where, EntryError::Entry::Load, k);
   coupling_.assign(3 * particles_.size(), 0.0);
   finalised_ = true;
   applyConstraints();

@@ -2,6 +2,7 @@
 // edge delta + h/2, so only the 27 surrounding cells are searched.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <unordered_map>
 
 #include "cosim/pd/bonds.hpp"
@@ -29,46 +30,61 @@ Bonds buildBonds(const Particles& p, std::size_t begin, std::size_t end, double 
   for (std::size_t i = begin; i < end; ++i)
     cells[key(cellOf(i, 0), cellOf(i, 1), cellOf(i, 2))].push_back(static_cast<std::uint32_t>(i));
 
-  bonds.offset.assign(n + 1, 0);
-  std::vector<std::vector<std::pair<std::uint32_t, double>>> rows(n);
-#pragma omp parallel for schedule(dynamic, 64) if (end - begin > static_cast<std::size_t>(kOmpMinParticles))
-  for (std::size_t i = begin; i < end; ++i) {
-    auto& row = rows[i - begin];
+  auto distance = [&p](std::size_t i, std::size_t j) {
+    double r2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double dx = p.reference[3 * j + k] - p.reference[3 * i + k];
+      r2 += dx * dx;
+    }
+    return std::sqrt(r2);
+  };
+  // Calls use(j) for every partner j of particle i; allocates nothing, so
+  // nothing can throw inside the OpenMP regions below.
+  auto forPartners = [&](std::size_t i, auto&& use) {
     const long c[3] = {cellOf(i, 0), cellOf(i, 1), cellOf(i, 2)};
+    unsigned long long seen[27];  // keys of more than 2^21 cells a side can repeat
+    int nSeen = 0;
     for (long a = c[0] - 1; a <= c[0] + 1; ++a)
       for (long b = c[1] - 1; b <= c[1] + 1; ++b)
         for (long d = c[2] - 1; d <= c[2] + 1; ++d) {
           if (a < 0 || b < 0 || d < 0) continue;
-          const auto it = cells.find(key(a, b, d));
+          const auto k = key(a, b, d);
+          if (std::find(seen, seen + nSeen, k) != seen + nSeen) continue;
+          seen[nSeen++] = k;
+          const auto it = cells.find(k);
           if (it == cells.end()) continue;
-          for (const std::uint32_t j : it->second) {
-            if (j == i) continue;
-            double r2 = 0.0;
-            for (int k = 0; k < 3; ++k) {
-              const double dx = p.reference[3 * j + k] - p.reference[3 * i + k];
-              r2 += dx * dx;
-            }
-            const double r = std::sqrt(r2);
-            if (partialVolume(r, horizon, spacing) > 0.0) row.emplace_back(j, r);
-          }
+          for (const std::uint32_t j : it->second)
+            if (j != i && partialVolume(distance(i, j), horizon, spacing) > 0.0) use(j);
         }
-    // Sorted rows make the summation order, and so the result, independent of
-    // the hash map's iteration order.
-    std::sort(row.begin(), row.end());
+  };
+  const bool parallel = n > static_cast<std::size_t>(kOmpMinParticles);
+  // Two passes: count each row, allocate the CSR arrays (outside any parallel
+  // region, so a failed allocation is an ordinary exception), then fill.
+  bonds.offset.assign(n + 1, 0);
+#pragma omp parallel for schedule(dynamic, 64) if (parallel)
+  for (std::size_t i = begin; i < end; ++i) {
+    std::size_t count = 0;
+    forPartners(i, [&count](std::uint32_t) { ++count; });
+    bonds.offset[i - begin + 1] = count;
   }
-  for (std::size_t i = 0; i < n; ++i) bonds.offset[i + 1] = bonds.offset[i] + rows[i].size();
+  for (std::size_t i = 0; i < n; ++i) bonds.offset[i + 1] += bonds.offset[i];
   const std::size_t total = bonds.offset[n];
   bonds.neighbor.resize(total);
   bonds.length.resize(total);
   bonds.volumeFraction.resize(total);
   bonds.broken.assign(total, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    std::size_t b = bonds.offset[i];
-    for (const auto& [j, r] : rows[i]) {
-      bonds.neighbor[b] = j;
-      bonds.length[b] = r;
-      bonds.volumeFraction[b] = partialVolume(r, horizon, spacing);
-      ++b;
+#pragma omp parallel for schedule(dynamic, 64) if (parallel)
+  for (std::size_t i = begin; i < end; ++i) {
+    const std::size_t first = bonds.offset[i - begin], last = bonds.offset[i - begin + 1];
+    std::size_t b = first;
+    forPartners(i, [&](std::uint32_t j) { bonds.neighbor[b++] = j; });
+    // Sorted rows make the summation order, and so the result, independent of
+    // the hash map's iteration order.
+    std::sort(bonds.neighbor.begin() + static_cast<std::ptrdiff_t>(first),
+              bonds.neighbor.begin() + static_cast<std::ptrdiff_t>(last));
+    for (b = first; b < last; ++b) {
+      bonds.length[b] = distance(i, bonds.neighbor[b]);
+      bonds.volumeFraction[b] = partialVolume(bonds.length[b], horizon, spacing);
     }
   }
   return bonds;

@@ -1,7 +1,9 @@
 // Reading the pd_solver's `params:` section. Every key is checked: an unknown
 // or mistyped key is an error naming the file and line.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -42,6 +44,17 @@ struct Reader {
     return v;
   }
 
+  // A whole number in [1, max] (a count of steps, requests or iterations).
+  std::uint64_t wholeNumber(const YAML::Node& node, const std::string& key, double max = 1e9) const {
+    const double v = number(node, key);
+    if (!(v >= 1.0 && v <= max && v == std::floor(v))) {
+      std::ostringstream msg;
+      msg << "'" << key << "' must be a whole number from 1 to " << static_cast<std::uint64_t>(max) << ", got " << node.as<std::string>();
+      fail(node, msg.str());
+    }
+    return static_cast<std::uint64_t>(v);
+  }
+
   bool flag(const YAML::Node& node, const std::string& key) const {
     try {
       return node.as<bool>();
@@ -60,10 +73,14 @@ struct Reader {
     return {number(node[0], key), number(node[1], key), number(node[2], key)};
   }
 
-  Selection selection(const YAML::Node& node) const {
+  Selection selection(const YAML::Node& node, const std::vector<BodySpec>& bodies) const {
     allowOnly(node, "select", {"body", "min", "max"});
     Selection s;
-    if (node["body"]) s.body = text(node["body"], "body");
+    if (node["body"]) {
+      s.body = text(node["body"], "body");
+      if (std::none_of(bodies.begin(), bodies.end(), [&s](const BodySpec& b) { return b.name == s.body; }))
+        fail(node["body"], "select names unknown body '" + s.body + "'");
+    }
     if (node["min"] || node["max"]) {
       if (!node["min"] || !node["max"]) fail(node, "select needs both 'min' and 'max'");
       s.hasBox = true;
@@ -71,6 +88,37 @@ struct Reader {
       s.max = vec3(node["max"], "max");
     }
     return s;
+  }
+
+  // Keys of one shape given to a body of another are refused, not ignored.
+  void shapeKeysOnly(const YAML::Node& node, const std::string& where, const std::string& shape) const {
+    static const std::map<std::string, std::set<std::string>> keys = {
+        {"box", {"min", "max"}},
+        {"sphere", {"center", "radius"}},
+        {"cylinder", {"center", "radius", "length", "axis"}},
+        {"points", {"file"}}};
+    for (const auto* key : {"min", "max", "center", "radius", "length", "axis", "file"})
+      if (node[key] && !keys.at(shape).count(key))
+        fail(node[key], where + "'" + key + "' does not apply to shape " + shape);
+  }
+
+  // Refuses, before anything is allocated, a lattice too large for the
+  // particle index or the memory, naming the key to change.
+  void sizeFits(const YAML::Node& node, const std::string& where, const BodySpec& b) const {
+    if (b.shape == Shape::Points) return;  // counted once the file is read
+    std::string key;
+    const auto why = bodySizeProblem(b, latticeParticleEstimate(b), key);
+    if (!why.empty()) fail(node[key] ? node[key] : node, where + why);
+  }
+
+  void influence(const YAML::Node& node, const std::string& where, BodySpec& b) const {
+    b.options.influence = text(node, "influence");
+    if (b.model != "lps") fail(node, where + "'influence' applies to model lps only");
+    try {
+      influenceFunction(b.options.influence);
+    } catch (const std::invalid_argument& e) {
+      fail(node, where + e.what());
+    }
   }
 
   BodySpec body(const YAML::Node& node, const std::string& baseDir) const {
@@ -82,6 +130,7 @@ struct Reader {
     b.name = text(node["name"], "name");
     const auto where = "body '" + b.name + "': ";
     const std::string shape = node["shape"] ? text(node["shape"], "shape") : "box";
+    if (shape == "box" || shape == "sphere" || shape == "cylinder" || shape == "points") shapeKeysOnly(node, where, shape);
     if (shape == "box") {
       b.shape = Shape::Box;
       if (!node["min"] || !node["max"]) fail(node, where + "box needs 'min' and 'max'");
@@ -114,7 +163,8 @@ struct Reader {
     else if (b.shape != Shape::Points) fail(node, where + "'spacing' is required");
     if (node["horizon"]) b.horizonFactor = positive(node["horizon"], "horizon");
     if (node["model"]) b.model = text(node["model"], "model");
-    if (node["influence"]) b.options.influence = text(node["influence"], "influence");
+    sizeFits(node, where, b);
+    if (node["influence"]) influence(node["influence"], where, b);
     if (node["surface_correction"]) b.options.surfaceCorrection = flag(node["surface_correction"], "surface_correction");
     if (node["critical_stretch"]) {
       b.options.criticalStretch = positive(node["critical_stretch"], "critical_stretch");
@@ -158,6 +208,22 @@ struct Reader {
   }
 };
 
+// "LINE: " of the entry an EntryError names, and its key path for a boundary
+// or load (body messages name the body); no line for a config built in code.
+std::string entryWhere(const PdConfig& c, const EntryError& e) {
+  const auto i = e.index();
+  const auto at = [i](const std::vector<int>& lines) { return i < lines.size() ? std::to_string(lines[i]) + ": " : " "; };
+  switch (e.entry()) {
+    case EntryError::Entry::Body:
+      return at(c.bodyLines);
+    case EntryError::Entry::Boundary:
+      return at(c.boundaryLines) + "boundary[" + std::to_string(i) + "]: ";
+    case EntryError::Entry::Load:
+      return at(c.loadLines) + "loads[" + std::to_string(i) + "]: ";
+  }
+  return " ";
+}
+
 }  // namespace
 
 PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, const std::string& baseDir) {
@@ -178,7 +244,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
       r.allowOnly(n, "boundary", {"select", "type", "velocity"});
       BoundaryCondition bc;
       if (!n["select"]) r.fail(n, "boundary needs 'select'");
-      bc.where = r.selection(n["select"]);
+      bc.where = r.selection(n["select"], c.bodies);
       const std::string type = n["type"] ? r.text(n["type"], "type") : "fixed";
       if (type == "fixed") bc.type = Constraint::Fixed;
       else if (type == "velocity") bc.type = Constraint::Velocity;
@@ -191,6 +257,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
         r.fail(n["velocity"], "'velocity' only applies to type velocity");
       }
       c.boundaries.push_back(bc);
+      c.boundaryLines.push_back(n.Mark().line + 1);
     }
   }
   if (const auto list = params["loads"]) {
@@ -199,9 +266,10 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
       r.allowOnly(n, "load", {"select", "force"});
       if (!n["select"] || !n["force"]) r.fail(n, "load needs 'select' and 'force'");
       AppliedLoad l;
-      l.where = r.selection(n["select"]);
+      l.where = r.selection(n["select"], c.bodies);
       l.force = r.vec3(n["force"], "force");
       c.loads.push_back(l);
+      c.loadLines.push_back(n.Mark().line + 1);
     }
   }
   if (const auto n = params["quasi_static"]) {
@@ -209,7 +277,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
     c.quasiStatic = true;
     if (n["tolerance"]) c.relaxTolerance = r.positive(n["tolerance"], "tolerance");
     if (n["max_iterations"])
-      c.relaxMaxIterations = static_cast<std::size_t>(r.positive(n["max_iterations"], "max_iterations"));
+      c.relaxMaxIterations = static_cast<std::size_t>(r.wholeNumber(n["max_iterations"], "max_iterations"));
   }
   if (params["body_force"]) c.bodyForce = r.vec3(params["body_force"], "body_force");
   if (const auto n = params["integrator"]) {
@@ -232,7 +300,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
     r.allowOnly(n, "output", {"file", "every"});
     c.outputFile = n["file"] ? r.text(n["file"], "file") : "pd.h5";
     c.outputEvery = 1;
-    if (n["every"]) c.outputEvery = static_cast<std::uint64_t>(r.positive(n["every"], "every"));
+    if (n["every"]) c.outputEvery = r.wholeNumber(n["every"], "every");
   }
   return c;
 }
@@ -250,6 +318,8 @@ void buildSystem(const PdConfig& c, PdSystem& system, const std::string& sceneFi
   system.setBodyForce(c.bodyForce);
   try {
     system.finalise();
+  } catch (const EntryError& e) {
+    throw std::invalid_argument(sceneFile + ":" + entryWhere(c, e) + e.what());
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(sceneFile + ": " + e.what());
   }

@@ -7,6 +7,7 @@
 // contact velocities add L d. Simple shear L = [[0, g, 0], [0, 0, 0], [0, 0, 0]]
 // is Lees-Edwards.
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 #include "cosim/dem/vec3.hpp"
@@ -45,7 +46,12 @@ struct PeriodicCell {
   /// Width of the cell perpendicular to face pair a (distance between opposite faces).
   double width(int a) const {
     const Vec3 b = column(h, (a + 1) % 3), c = column(h, (a + 2) % 3);
-    return volume() / norm(cross(b, c));
+    const double w = volume() / norm(cross(b, c));
+    if (std::isfinite(w) && w > 0.0) return w;
+    // Long or very uneven cell vectors overflow |b x c| or det H: a . (b x c) / |b x c|
+    // with each vector scaled by a power of two first (exact, no overflow).
+    const Vec3 n = powerOfTwoScaled(cross(powerOfTwoScaled(b), powerOfTwoScaled(c)));
+    return dot(column(h, a), (1.0 / norm(n)) * n);
   }
   /// Image offset H n for an integer shift n.
   Vec3 shift(const std::array<std::int8_t, 3>& n) const {

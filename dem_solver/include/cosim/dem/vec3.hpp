@@ -26,6 +26,15 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
 }
 constexpr double norm2(const Vec3& a) { return dot(a, a); }
 inline double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+/// a times the power of two that brings its largest component into [1, 2):
+/// exact, so its direction has the same bits, and |a| can neither overflow nor
+/// underflow (a zero or non-finite a comes back as it is).
+inline Vec3 powerOfTwoScaled(const Vec3& a) {
+  const double largest = std::fmax(std::fabs(a.x), std::fmax(std::fabs(a.y), std::fabs(a.z)));
+  if (!(largest > 0.0) || !std::isfinite(largest)) return a;
+  const int e = -std::ilogb(largest);  // up to 1074 for a subnormal: scale each component, not by 2^e
+  return {std::scalbn(a.x, e), std::scalbn(a.y, e), std::scalbn(a.z, e)};
+}
 /// c ? a : b per component, as selects (no branch), so loops over contacts vectorise.
 constexpr Vec3 select(bool c, const Vec3& a, const Vec3& b) {
   return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z};

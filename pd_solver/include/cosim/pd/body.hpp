@@ -51,6 +51,30 @@ struct PointCloud {
 /// Throws std::invalid_argument naming the body for a non-positive spacing or size.
 PointCloud discretise(const BodySpec& spec);
 
+/// Size of a body estimated before it is built: particles (a lattice: the
+/// shape's volume / h^3), bonds (particles x the lattice family of horizon
+/// factor m, about 4/3 pi (m + 1/2)^3, at most particles - 1) and bytes.
+struct BodySize {
+  double particles = 0.0;
+  double bonds = 0.0;
+  double bytes = 0.0;
+};
+BodySize estimateBodySize(const BodySpec& spec, double particles);
+
+/// Lattice points an analytic shape will hold (box: the exact count; sphere
+/// and cylinder: volume / h^3); inf or NaN for sizes no double count holds.
+double latticeParticleEstimate(const BodySpec& spec);
+
+/// Memory this process may use: physical memory, or the address-space limit
+/// (ulimit -v) when that is lower.
+double availableMemoryBytes();
+
+/// Empty when a body of `particles` particles fits the 32-bit particle index
+/// and the available memory; otherwise why not, with `key` set to the key to
+/// change: "spacing" ("file" for a points body) when the particles alone do
+/// not fit, "horizon" when their bonds do not.
+std::string bodySizeProblem(const BodySpec& spec, double particles, std::string& key);
+
 /// Reads "x y z volume" lines ('#' starts a comment). Throws naming file and
 /// line for unreadable lines, NaN/Inf values or non-positive volumes.
 PointCloud readPointFile(const std::string& path);

@@ -15,7 +15,9 @@ struct PdConfig {
   std::vector<BodySpec> bodies;
   std::vector<int> bodyLines;  // scene line of each body entry
   std::vector<BoundaryCondition> boundaries;
+  std::vector<int> boundaryLines;  // scene line of each boundary entry
   std::vector<AppliedLoad> loads;
+  std::vector<int> loadLines;      // scene line of each load entry
   Vec3 bodyForce{};
   bool staggered = false;    // integrator: staggered (Hartmann Eq. 47) | verlet
   bool interpolate = false;  // inputs: interpolate | hold
@@ -32,7 +34,8 @@ struct PdConfig {
 PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile,
                        const std::string& baseDir);
 
-/// Builds (and finalises) a system from a config; body errors name the line.
+/// Builds (and finalises) a system from a config; errors of a body, boundary
+/// or load entry name its line (and `boundary[i]` / `loads[i]`).
 void buildSystem(const PdConfig& config, PdSystem& system, const std::string& sceneFile);
 
 }  // namespace cosim::pd

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,21 @@ struct Energies {
   double externalWork = 0.0;
 };
 
+/// An input error finalise() ties to one entry: a body, boundary condition or
+/// load, by its index in the order added (so a scene reader can name its line).
+class EntryError : public std::invalid_argument {
+ public:
+  enum class Entry { Body, Boundary, Load };
+  EntryError(Entry entry, std::size_t index, const std::string& what)
+      : std::invalid_argument(what), entry_(entry), index_(index) {}
+  Entry entry() const { return entry_; }
+  std::size_t index() const { return index_; }
+
+ private:
+  Entry entry_;
+  std::size_t index_;
+};
+
 class PdSystem {
  public:
   /// Discretises and appends a body; throws std::invalid_argument naming the
@@ -67,7 +83,9 @@ class PdSystem {
   void addLoad(AppliedLoad load) { loads_.push_back(std::move(load)); }
   void setBodyForce(const Vec3& g) { gravity_ = g; }
   /// Builds neighbour lists, initialises models, resolves particle sets and
-  /// computes the initial forces. Call once after adding everything.
+  /// computes the initial forces. Call once after adding everything. Throws
+  /// EntryError for a particle with no partner within its horizon, a model
+  /// option a model refuses, or a particle set that selects nothing.
   void finalise();
 
   /// Coupling forces (e.g. DEM contact on hybrid particles), 3 per particle,
@@ -124,6 +142,8 @@ class PdSystem {
   std::vector<double>& previousExternalForce() { return externalPrev_; }
 
  private:
+  void buildBody(std::size_t b);
+  std::vector<std::uint32_t> resolve(const Selection& where, EntryError::Entry entry, std::size_t index) const;
   void computeExternal();
   void computeInternal();
   void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;

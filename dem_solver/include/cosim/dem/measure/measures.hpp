@@ -39,8 +39,11 @@ double unbalancedForceIndex(const DemSystem& s);
 /// I_uf < tolerance (checked every `every` steps) or maxSteps; returns the steps taken.
 long relax(DemSystem& s, double dt, double tolerance, long maxSteps, long every = 10);
 /// Largest stable step: sqrt(m*/k) for linear springs; for Hertz the smaller of
-/// the Rayleigh step and the Hertz contact time at twice the fastest speed / pi.
+/// the Rayleigh step and the Hertz contact time at twice the fastest speed / pi;
+/// with bonds also sqrt(w_i m_i / (2 k sum_b w_b)) over each particle's bonds.
 double criticalTimeStep(const DemSystem& s);
+/// The bonded springs' part of it: the smallest sqrt(w_i m_i / (2 k sum_b w_b)); 0 without bonds.
+double bondCriticalStep(const DemSystem& s);
 /// The step the contacts of driven particles allow when another solver
 /// integrates them under the forces returned to it (hybrid PD particles, whose
 /// mass rho V the hybrid material's density gives): the Hertz contact time at

@@ -18,12 +18,12 @@
 //       - {sphere: {position, radius, velocity, material, driven}}   # driven: moves with velocity
 //     walls:
 //       - {type: plane, name, point, normal, velocity, mode: fixed|velocity|servo,
-//          stress, area, gain, material}
+//          stress, area, gain, material}     # stress, area, gain: servo only; velocity: velocity only
 //       - {type: mesh, name, vertices: [[x,y,z]...], triangles: [[a,b,c]...], velocity, material}
 //     periodic: {cell: [[a], [b], [c]], velocity_gradient: [[row], [row], [row]]}
 //     hybrid: {material: pd-surface}     # material of coupled hybrid PD particles (default: the first)
 //     mass_damping: 0.0                  # c of -c m v (dynamic relaxation)
-//     snapshots: {every: 1000, file: particles.h5}
+//     snapshots: {every: 1000, file: particles.h5}   # file needs every > 0
 //     zones:                             # particle states sent with every setup/advance reply
 //       - {name: all}                    # every particle
 //       - {name: overlap, box: {min: [x, y, z], max: [x, y, z]}}   # those starting inside the box
@@ -70,6 +70,8 @@ void configure(const YAML::Node& params, const std::string& sceneFile, DemSystem
                const std::string& baseDir = "");
 /// Checks radii, densities, finiteness and initial overlaps; throws naming the particle.
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context);
+/// Spheres reaching into a plane wall by more than overlapTolerance x their radius; throws naming both.
+void checkPlaneOverlaps(const DemSystem& system, double overlapTolerance, const std::string& context);
 
 /// A neighbour pair overlapping by more than overlapTolerance x the smaller radius.
 struct ExcessOverlap {

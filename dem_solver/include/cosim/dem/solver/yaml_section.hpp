@@ -46,5 +46,9 @@ class YamlSection {
 };
 
 Vec3 toVec3(const YAML::Node& node, const std::string& where);
+/// A list element or nested value, checked: `where` is "<file>:<line>: <key path>".
+double toNumber(const YAML::Node& node, const std::string& where);                // finite
+long toInteger(const YAML::Node& node, const std::string& where, long lo, long hi);  // in [lo, hi]
+std::string toText(const YAML::Node& node, const std::string& where);             // a scalar
 
 }  // namespace cosim::dem

@@ -45,6 +45,8 @@ class FemSolver final : public wire::Solver {
   void applyCouplingForces(proto::CouplingData::Reader inputs);
   /// Coupling exports; atSetup: the setup reply (the only one a `quadrature: setup` export goes with).
   void fillCouplingOutputs(proto::CouplingData::Builder outputs, bool atSetup) const;
+  /// `boundary:` list: prescribed displacements or velocities of node sets.
+  void readBoundary(ParamMap& p);
   /// `periodic:` list: node pairs of opposite faces tied with an optional jump.
   void readPeriodic(ParamMap& p);
   /// GMH: stresses of unit-cell results into the external material.

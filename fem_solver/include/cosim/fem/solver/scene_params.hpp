@@ -24,6 +24,11 @@ class ParamMap {
   bool flag(const std::string& key, bool fallback);
   Vec3 vec3(const std::string& key);
   ParamMap map(const std::string& key);
+  /// A list of names (`key: [a, b]`); anything else, or an entry that is not a
+  /// name, fails as `<file>:<line>: <path>.key: expected a list of <what>, got ...`.
+  std::vector<std::string> names(const std::string& key, const std::string& what);
+  /// A key of a user map (`sets:`, `zones:`) as text; a list or map key fails naming `of`.
+  std::string keyName(const YAML::Node& key, const std::string& of) const;
   /// Throws for any key that was never asked for.
   void finish() const;
   [[noreturn]] void fail(const YAML::Node& at, const std::string& message) const;
