@@ -44,12 +44,14 @@ class XdmfTimeSeries {
   const std::filesystem::path& path() const { return xmfPath_; }
 
  private:
-  void write() const;
   struct Step {
     std::uint64_t step;
     double time;
     std::size_t points;
   };
+  void write() const;
+  /// The <Grid> element of one step.
+  std::string grid(const Step& s) const;
   std::filesystem::path xmfPath_;
   std::string h5Name_;
   std::string gridName_;
@@ -57,6 +59,7 @@ class XdmfTimeSeries {
   std::string geometry_;
   std::vector<Field> fields_;
   std::vector<Step> steps_;
+  std::string grids_;  // the steps' <Grid> elements, formatted once each
 };
 
 }  // namespace cosim::io
