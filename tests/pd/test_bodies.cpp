@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "cosim/pd/hybrid.hpp"
+#include "cosim/util/host_memory.hpp"
 #include "pd_test_util.hpp"
 
 namespace cosim::pd {
@@ -185,7 +186,7 @@ TEST(PdBodies, LatticeSizeIsCheckedBeforeAllocating) {
   const auto size = estimateBodySize(spec, 1000.0);
   EXPECT_NEAR(size.bonds, 1000.0 * 4.0 / 3.0 * std::numbers::pi * 3.5 * 3.5 * 3.5, 1e-6);
   EXPECT_DOUBLE_EQ(estimateBodySize(spec, 10.0).bonds, 90.0);  // at most every other particle
-  EXPECT_GT(availableMemoryBytes(), 0.0);
+  EXPECT_GT(util::availableMemoryBytes(), 0.0);
 
   spec.max[0] = 1e200;
   auto msg = errorOf([&] { discretise(spec); });

@@ -8,10 +8,9 @@
 #include <random>
 #include <sstream>
 
-#include <unistd.h>
-
 #include "cosim/dem/packing/packing.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
+#include "cosim/util/host_memory.hpp"
 #include "cosim/wire/solver.hpp"
 
 namespace cosim::dem {
@@ -78,8 +77,7 @@ void addSpheres(const SphereSet& set, std::uint16_t material, const Vec3& veloci
 // about 1 KB each (particle state, neighbour rows, packing scratch), and what
 // the 32-bit particle indices reach. Checked before a packing allocates.
 std::size_t maxParticles() {
-  const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
-  const double memory = pages > 0 && pageSize > 0 ? static_cast<double>(pages) * static_cast<double>(pageSize) : 1e12;
+  const double memory = util::availableMemoryBytes();
   return static_cast<std::size_t>(std::min(memory / 1024.0, static_cast<double>(std::numeric_limits<std::int32_t>::max())));
 }
 

@@ -1,8 +1,5 @@
 // Regular-lattice discretisation of analytic shapes: cell centres of a cubic
 // lattice of spacing h whose cell centre lies inside the shape, volume h^3.
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -13,6 +10,7 @@
 #include <stdexcept>
 
 #include "cosim/pd/body.hpp"
+#include "cosim/util/host_memory.hpp"
 
 namespace cosim::pd {
 namespace {
@@ -57,13 +55,10 @@ constexpr double kMaxParticles = 4294967295.0;  // particle indices are std::uin
 constexpr double kBytesPerParticle = 512.0;
 double bytesPerBond(const BodySpec& spec) { return spec.model == "pmb" ? 40.0 : 104.0; }
 
-// Cells of spacing h across an extent (at least one; NaN stays NaN).
-double axisCount(double extent, double h) {
-  const double n = std::round(extent / h);
-  return n < 1.0 ? 1.0 : n;
-}
+double atLeastOne(double n) { return n < 1.0 ? 1.0 : n; }  // NaN stays NaN
 
-double atLeastOne(double n) { return n < 1.0 ? 1.0 : n; }
+// Cells of spacing h across an extent (at least one).
+double axisCount(double extent, double h) { return atLeastOne(std::round(extent / h)); }
 
 std::string gigabytes(double bytes) {
   std::ostringstream s;
@@ -127,19 +122,8 @@ double latticeParticleEstimate(const BodySpec& spec) {
   return 0.0;
 }
 
-double availableMemoryBytes() {
-  const long pages = sysconf(_SC_PHYS_PAGES);
-  const long pageSize = sysconf(_SC_PAGE_SIZE);
-  double bytes = pages > 0 && pageSize > 0 ? static_cast<double>(pages) * static_cast<double>(pageSize)
-                                           : std::numeric_limits<double>::infinity();
-  rlimit limit{};
-  if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
-    bytes = std::min(bytes, static_cast<double>(limit.rlim_cur));
-  return bytes;
-}
-
 std::string bodySizeProblem(const BodySpec& spec, double particles, std::string& key) {
-  const double memory = availableMemoryBytes();
+  const double memory = util::availableMemoryBytes();
   if (!(particles <= kMaxParticles && particles * kBytesPerParticle <= memory)) {
     key = spec.shape == Shape::Points ? "file" : "spacing";
     return particleProblem(spec, particles, memory);

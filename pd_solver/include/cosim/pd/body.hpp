@@ -65,12 +65,8 @@ BodySize estimateBodySize(const BodySpec& spec, double particles);
 /// and cylinder: volume / h^3); inf or NaN for sizes no double count holds.
 double latticeParticleEstimate(const BodySpec& spec);
 
-/// Memory this process may use: physical memory, or the address-space limit
-/// (ulimit -v) when that is lower.
-double availableMemoryBytes();
-
 /// Empty when a body of `particles` particles fits the 32-bit particle index
-/// and the available memory; otherwise why not, with `key` set to the key to
+/// and the available memory (util::availableMemoryBytes); otherwise why not, with `key` set to the key to
 /// change: "spacing" ("file" for a points body) when the particles alone do
 /// not fit, "horizon" when their bonds do not.
 std::string bodySizeProblem(const BodySpec& spec, double particles, std::string& key);
