@@ -232,17 +232,15 @@ void DemSystem::computeForces(double dt, double closingKick) {
     pairForce.assign(neighbors.pairs(), {});
     markPlaneCandidates();
     // Cheng 2022 Alg. 2: each triangle's bounding box, grown by the largest
-    // radius and the skin, picks its candidate particles from the grid.
-    double rmax = 0.0;
-    for (double r : particles.radius) rmax = std::max(rmax, r);
+    // radius and the skin (of each size class's grid), picks its candidate particles.
     const std::size_t n = particles.size();
     std::vector<std::uint32_t> found;
     for (auto& m : meshes) {
       std::vector<std::vector<std::uint32_t>> perParticle(n);
       for (std::size_t t = 0; t < m.triangles.size(); ++t) {
         Vec3 lo, hi;
-        m.boundingBox(t, rmax + neighbors.skin, lo, hi);
-        neighbors.particlesInBox(lo, hi, found);
+        m.boundingBox(t, 0.0, lo, hi);
+        neighbors.particlesNearBox(lo, hi, found);
         const auto& tri = m.triangles[t];
         for (std::uint32_t i : found) {
           const ClosestPoint cp = closestPointOnTriangle(particles.x[i], m.vertices[tri[0]], m.vertices[tri[1]],

@@ -133,6 +133,22 @@ TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
   EXPECT_GT(forceOf(f, 4).z, 0.0);
 }
 
+// The default skin is a fifth of the smallest radius, hybrid particles
+// included once they arrive (their own spheres 5 x larger would give a skin
+// listing hybrid pairs that never touch); a given skin stays.
+TEST(HybridSpheresInDem, TheDefaultSkinTakesTheHybridRadiiIn) {
+  std::string scene = kScene;
+  const std::string sphere = "position: [0, 0, 0.0195], radius: 0.01,";
+  scene.replace(scene.find(sphere), sphere.size(), "position: [1, 1, 1], radius: 0.05,");
+  const Hybrids h;
+  DemRun run(h, scene);
+  EXPECT_DOUBLE_EQ(run.solver.system().neighbors.skin, 0.2 * 0.01);
+  const std::string tolerance = "      overlap_tolerance: 0.2";
+  scene.insert(scene.find(tolerance), "      skin: 0.004\n");
+  DemRun given(h, scene);
+  EXPECT_DOUBLE_EQ(given.solver.system().neighbors.skin, 0.004);
+}
+
 // A DEM side of only PD bodies (H5's all-PD pack): no spheres of its own, the
 // hybrid particles meet the wall and each other; the skin defaults to a fifth
 // of their smallest radius. Without `hybrid:` a scene without particles is

@@ -1,12 +1,15 @@
 // The linked-cell Verlet list against brute force, on polydisperse sets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <stdexcept>
 #include <string>
 #include <set>
 #include <utility>
+#include <vector>
 
 #include "cosim/dem/neighbor/neighbor_list.hpp"
 
@@ -59,6 +62,67 @@ TEST(DemNeighbor, EqualsBruteForcePolydisperse) {
         ++rev;
       }
     EXPECT_EQ(rev, a.size());
+  }
+}
+
+// A few large spheres among many small ones (DEM spheres among hybrid PD
+// particles, size ratio 16 in H5): the largest tenth get a grid of their own,
+// and the list must still be exactly the brute-force one, large spheres at the
+// cloud's edges and corners included, with and without the skin dwarfing the
+// small radii.
+TEST(DemNeighbor, AFewLargeSpheresAmongManySmallOnesEqualsBruteForce) {
+  for (const double skinPerSmall : {0.2, 3.0}) {
+    Particles p = randomCloud(4000, 0.004, 0.006, 1.0, 7);
+    const Particles large = randomCloud(24, 0.1, 0.2, 1.0, 8);
+    for (std::size_t k = 0; k < large.size(); ++k) p.add(large.x[k], large.radius[k], 1000.0);
+    p.add({0.0, 0.0, 0.0}, 0.15, 1000.0);  // corners of the cloud
+    p.add({1.0, 1.0, 1.0}, 0.15, 1000.0);
+    p.add({0.5, 0.5, 0.5}, 0.005, 1000.0);  // and a small one last
+    NeighborList nl;
+    nl.skin = skinPerSmall * 0.004;
+    nl.build(p);
+    const auto a = listed(nl, p.size());
+    const auto b = bruteForce(p, nl.skin);
+    std::size_t largeSmall = 0;
+    for (const auto& [i, j] : b) largeSmall += (p.radius[i] > 0.01) != (p.radius[j] > 0.01);
+    std::printf("skin %g: %zu pairs listed, %zu brute force (%zu large-small)\n", nl.skin, a.size(), b.size(), largeSmall);
+    EXPECT_GT(largeSmall, 1000u);
+    EXPECT_EQ(a, b);
+  }
+}
+
+// The mesh walls' candidate query (Cheng 2022 Alg. 2) returns every particle
+// whose sphere grown by the skin reaches the box, from either size class.
+TEST(DemNeighbor, ParticlesNearABoxIncludeEveryOneReachingIt) {
+  Particles p = randomCloud(3000, 0.004, 0.006, 1.0, 11);
+  const Particles large = randomCloud(20, 0.1, 0.2, 1.0, 12);
+  for (std::size_t k = 0; k < large.size(); ++k) p.add(large.x[k], large.radius[k], 1000.0);
+  NeighborList nl;
+  nl.skin = 0.001;
+  nl.build(p);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-0.1, 1.1), w(0.0, 0.2);
+  std::vector<std::uint32_t> found;
+  for (int box = 0; box < 50; ++box) {
+    const Vec3 lo{u(rng), u(rng), u(rng)};
+    const Vec3 hi = lo + Vec3{w(rng), w(rng), 0.0};  // flat, like a triangle's box
+    nl.particlesNearBox(lo, hi, found);
+    const std::set<std::uint32_t> got(found.begin(), found.end());
+    EXPECT_EQ(got.size(), found.size()) << "a particle listed twice";
+    std::size_t reaching = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      double d2 = 0.0;  // squared distance from the centre to the box
+      for (int d = 0; d < 3; ++d) {
+        const double out = std::max({lo[d] - p.x[i][d], 0.0, p.x[i][d] - hi[d]});
+        d2 += out * out;
+      }
+      const double cut = p.radius[i] + nl.skin;
+      if (d2 < cut * cut) {
+        ++reaching;
+        EXPECT_TRUE(got.count(static_cast<std::uint32_t>(i))) << "box " << box << ": particle " << i << " missed";
+      }
+    }
+    if (box == 0) std::printf("box 0: %zu reaching, %zu candidates\n", reaching, found.size());
   }
 }
 

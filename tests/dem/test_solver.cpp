@@ -556,6 +556,12 @@ TEST(DemSolver, LargePeriodicCellsGetACappedGridAndWideCellsTheirWidth) {
                 "bad.yaml:9: params.periodic.cell: the cell is 0.005 m wide across face pair 0");
   expectRefused(kGlass + kOneSphere + "      periodic: {cell: [[1e200, 0, 0], [0, 1e200, 0], [0, 0, 1e200]]}\n",
                 "params.periodic.cell: the cell's volume overflows double range");
+  // Mesh contacts are not searched across images: refused, not silently missed.
+  expectRefused(kGlass + "      particles: [{sphere: {position: [0.5, 0.5, 0.5], radius: 0.01}}]\n"
+                         "      walls: [{type: mesh, name: floor, vertices: [[0, 0, 0], [1, 0, 0], [1, 1, 0]], "
+                         "triangles: [[0, 1, 2]]}]\n"
+                         "      periodic: {cell: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}\n",
+                "params.walls: mesh wall 'floor' in a periodic cell");
 }
 
 TEST(DemSolver, PlaneWallNormalsOfAnyScaleAndStartOverlaps) {

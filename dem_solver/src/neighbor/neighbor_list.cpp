@@ -78,7 +78,51 @@ std::string unbinnableMessage(const Particles& p) {
 }
 }  // namespace
 
-void NeighborList::binParticles(const Particles& p, double cell) {
+namespace {
+// Radii spread over more than a factor 2: the largest tenth (above the 90th
+// percentile) get a grid of their own. Returns the largest radius of the small
+// grid (every radius when there is no split).
+double splitRadius(const std::vector<double>& radius) {
+  double rmax = 0.0;
+  for (double r : radius) rmax = std::max(rmax, r);
+  if (radius.size() < 16) return rmax;
+  std::vector<double> sorted(radius);
+  const auto q = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() * 9 / 10);
+  std::nth_element(sorted.begin(), q, sorted.end());
+  return rmax > 2.0 * *q ? *q : rmax;
+}
+}  // namespace
+
+void NeighborList::CellGrid::fill(const std::vector<std::uint32_t>& members, const std::vector<std::uint32_t>& cellOf) {
+  // Counting sort: counts shifted by one, a prefix sum turns them into
+  // offsets, then each member goes to its slot (in member order).
+  start.assign(cells() + 1, 0);
+  for (std::uint32_t c : cellOf) ++start[c + 1];
+  for (std::size_t c = 0; c + 1 < start.size(); ++c) start[c + 1] += start[c];
+  items.resize(members.size());
+  std::vector<std::uint32_t> slot(start.begin(), start.end() - 1);
+  for (std::size_t k = 0; k < members.size(); ++k) items[slot[cellOf[k]]++] = members[k];
+}
+
+template <class Visit>
+void NeighborList::CellGrid::forCellsOverlapping(const Vec3& a, const Vec3& b, Visit&& visit) const {
+  int from[3], to[3];
+  for (int d = 0; d < 3; ++d) {
+    // In double first: a box far outside the grid must not overflow the int.
+    const double fa = std::floor((a[d] - lo[d]) / cell), fb = std::floor((b[d] - lo[d]) / cell);
+    if (!(fb >= 0.0 && fa <= dims[d] - 1)) return;
+    from[d] = static_cast<int>(std::max(0.0, fa));
+    to[d] = static_cast<int>(std::min(static_cast<double>(dims[d] - 1), fb));
+  }
+  for (int z = from[2]; z <= to[2]; ++z)
+    for (int y = from[1]; y <= to[1]; ++y)
+      for (int x = from[0]; x <= to[0]; ++x) {
+        const std::size_t c = index(x, y, z);
+        visit(items.data() + start[c], items.data() + start[c + 1]);
+      }
+}
+
+void NeighborList::binOpen(const Particles& p) {
   const std::size_t n = p.size();
   Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
           std::numeric_limits<double>::max()};
@@ -95,74 +139,62 @@ void NeighborList::binParticles(const Particles& p, double cell) {
   // make the cell count below NaN and its loop endless: stop with the particles.
   if (!finite || !std::isfinite(hi.x - lo.x) || !std::isfinite(hi.y - lo.y) || !std::isfinite(hi.z - lo.z))
     throw std::runtime_error(unbinnableMessage(p));
-  // Cells at least 2 r_max + skin wide: every partner is in the 27 cells around.
-  cell = cappedCellSize(cell, n, [&](double size) {
+  const double split = splitRadius(p.radius);
+  std::vector<std::uint32_t> members[2];
+  for (std::size_t i = 0; i < n; ++i) members[p.radius[i] > split ? 1 : 0].push_back(static_cast<std::uint32_t>(i));
+  for (int g = 0; g < 2; ++g) binOpenGrid(open_[g], p, members[g], lo, hi);
+}
+
+void NeighborList::binOpenGrid(CellGrid& g, const Particles& p, const std::vector<std::uint32_t>& members,
+                               const Vec3& lo, const Vec3& hi) {
+  g.rmax = 0.0;
+  for (std::uint32_t i : members) g.rmax = std::max(g.rmax, p.radius[i]);
+  // Cells at least 2 r_max + skin wide (r_max of this grid): a member's
+  // partners in it lie in the cells its reach r_i + skin + r_max overlaps.
+  g.cell = cappedCellSize(std::max(2.0 * g.rmax + skin, 1e-300), members.size(), [&](double size) {
     double total = 1.0;
     for (int d = 0; d < 3; ++d) total *= std::floor((hi[d] - lo[d]) / size) + 1.0;
     return total;
   });
-  for (int d = 0; d < 3; ++d) dims_[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / cell)) + 1);
-  lo_ = lo;
-  cell_ = cell;
-  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
-  cellStart_.assign(ncell + 1, 0);
-  cellOf_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (int d = 0; d < 3; ++d) g.dims[d] = std::max(1, static_cast<int>(std::floor((hi[d] - lo[d]) / g.cell)) + 1);
+  g.lo = lo;
+  std::vector<std::uint32_t> cellOf(members.size());
+  for (std::size_t k = 0; k < members.size(); ++k) {
     int c[3];
     for (int d = 0; d < 3; ++d)
-      c[d] = std::min(dims_[d] - 1, static_cast<int>((p.x[i][d] - lo[d]) / cell));
-    cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
-    ++cellStart_[cellOf_[i] + 1];
+      c[d] = std::min(g.dims[d] - 1, static_cast<int>((p.x[members[k]][d] - lo[d]) / g.cell));
+    cellOf[k] = static_cast<std::uint32_t>(g.index(c[0], c[1], c[2]));
   }
-  sortIntoCells(n, ncell);
-}
-
-void NeighborList::sortIntoCells(std::size_t n, std::size_t ncell) {
-  // Counting sort: cellStart_ holds the per-cell counts shifted by one; the
-  // prefix sum turns them into offsets, then each particle goes to its slot.
-  for (std::size_t c = 0; c < ncell; ++c) cellStart_[c + 1] += cellStart_[c];
-  cellItems_.resize(n);
-  std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) cellItems_[fill[cellOf_[i]]++] = static_cast<std::uint32_t>(i);
+  g.fill(members, cellOf);
 }
 
 template <class Visit>
 void NeighborList::forCandidates(const Particles& p, std::size_t i, Visit&& visit) const {
-  const std::uint32_t c = cellOf_[i];
-  const int cx = static_cast<int>(c % static_cast<std::uint32_t>(dims_[0]));
-  const int cy = static_cast<int>((c / static_cast<std::uint32_t>(dims_[0])) % static_cast<std::uint32_t>(dims_[1]));
-  const int cz = static_cast<int>(c / static_cast<std::uint32_t>(dims_[0] * dims_[1]));
   const Vec3 xi = p.x[i];
   const double ri = p.radius[i] + skin;
-  for (int z = std::max(0, cz - 1); z <= std::min(dims_[2] - 1, cz + 1); ++z)
-    for (int y = std::max(0, cy - 1); y <= std::min(dims_[1] - 1, cy + 1); ++y)
-      for (int x = std::max(0, cx - 1); x <= std::min(dims_[0] - 1, cx + 1); ++x) {
-        const std::size_t cell = static_cast<std::size_t>(x + dims_[0] * (y + dims_[1] * z));
-        for (std::uint32_t s = cellStart_[cell]; s < cellStart_[cell + 1]; ++s) {
-          const std::uint32_t j = cellItems_[s];
-          if (j <= i) continue;
-          const double cut = ri + p.radius[j];
-          if (norm2(xi - p.x[j]) < cut * cut) visit(j);
-        }
-      }
+  for (const CellGrid& g : open_) {
+    if (g.items.empty()) continue;
+    const double reach = ri + g.rmax;
+    g.forCellsOverlapping(xi - Vec3{reach, reach, reach}, xi + Vec3{reach, reach, reach},
+                          [&](const std::uint32_t* first, const std::uint32_t* last) {
+                            for (; first != last; ++first) {
+                              const std::uint32_t j = *first;
+                              if (j <= i) continue;
+                              const double cut = ri + p.radius[j];
+                              if (norm2(xi - p.x[j]) < cut * cut) visit(j);
+                            }
+                          });
+  }
 }
 
-void NeighborList::particlesInBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out) const {
+void NeighborList::particlesNearBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out) const {
   out.clear();
-  if (cellStart_.empty()) return;
-  int a[3], b[3];
-  for (int d = 0; d < 3; ++d) {
-    const double fa = std::floor((lo[d] - lo_[d]) / cell_), fb = std::floor((hi[d] - lo_[d]) / cell_);
-    if (fb < 0.0 || fa > dims_[d] - 1) return;
-    a[d] = std::max(0, static_cast<int>(fa));
-    b[d] = std::min(dims_[d] - 1, static_cast<int>(fb));
+  for (const CellGrid& g : open_) {
+    if (g.items.empty()) continue;
+    const double grow = g.rmax + skin;
+    g.forCellsOverlapping(lo - Vec3{grow, grow, grow}, hi + Vec3{grow, grow, grow},
+                          [&](const std::uint32_t* first, const std::uint32_t* last) { out.insert(out.end(), first, last); });
   }
-  for (int z = a[2]; z <= b[2]; ++z)
-    for (int y = a[1]; y <= b[1]; ++y)
-      for (int x = a[0]; x <= b[0]; ++x) {
-        const std::size_t c = static_cast<std::size_t>(x + dims_[0] * (y + dims_[1] * z));
-        out.insert(out.end(), cellItems_.begin() + cellStart_[c], cellItems_.begin() + cellStart_[c + 1]);
-      }
 }
 
 void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, double size) {
@@ -179,30 +211,32 @@ void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, dou
   size = cappedCellSize(size, n, [&w](double s) {
     return std::max(1.0, std::floor(w.x / s)) * std::max(1.0, std::floor(w.y / s)) * std::max(1.0, std::floor(w.z / s));
   });
-  for (int d = 0; d < 3; ++d) dims_[d] = std::max(1, static_cast<int>(std::floor(w[d] / size)));
+  CellGrid& g = periodic_;
+  for (int d = 0; d < 3; ++d) g.dims[d] = std::max(1, static_cast<int>(std::floor(w[d] / size)));
   const Mat3 hInv = inverse(cell.h);
   frac_.resize(n);
-  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
-  cellStart_.assign(ncell + 1, 0);
   cellOf_.resize(n);
+  std::vector<std::uint32_t> members(n);
   for (std::size_t i = 0; i < n; ++i) {
+    members[i] = static_cast<std::uint32_t>(i);
     frac_[i] = mul(hInv, p.x[i]);
     int c[3];
     for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<int>(std::floor(frac_[i][d] * dims_[d])), 0, dims_[d] - 1);
-    cellOf_[i] = static_cast<std::uint32_t>(c[0] + dims_[0] * (c[1] + dims_[1] * c[2]));
-    ++cellStart_[cellOf_[i] + 1];
+      c[d] = std::clamp(static_cast<int>(std::floor(frac_[i][d] * g.dims[d])), 0, g.dims[d] - 1);
+    cellOf_[i] = static_cast<std::uint32_t>(g.index(c[0], c[1], c[2]));
   }
-  sortIntoCells(n, ncell);
+  g.fill(members, cellOf_);
 }
 
 template <class Visit>
 void NeighborList::forPeriodicCandidates(const Particles& p, const PeriodicCell& cell, std::size_t i,
                                          Visit&& visit) const {
+  const CellGrid& g = periodic_;
+  const int* dims = g.dims;
   const std::uint32_t c = cellOf_[i];
-  const int cc[3] = {static_cast<int>(c % static_cast<std::uint32_t>(dims_[0])),
-                     static_cast<int>((c / static_cast<std::uint32_t>(dims_[0])) % static_cast<std::uint32_t>(dims_[1])),
-                     static_cast<int>(c / static_cast<std::uint32_t>(dims_[0] * dims_[1]))};
+  const int cc[3] = {static_cast<int>(c % static_cast<std::uint32_t>(dims[0])),
+                     static_cast<int>((c / static_cast<std::uint32_t>(dims[0])) % static_cast<std::uint32_t>(dims[1])),
+                     static_cast<int>(c / static_cast<std::uint32_t>(dims[0] * dims[1]))};
   const Vec3 xi = p.x[i];
   const double ri = p.radius[i] + skin;
   // Visit each (cell, image) once: with fewer than 3 cells along an axis the
@@ -215,14 +249,14 @@ void NeighborList::forPeriodicCandidates(const Particles& p, const PeriodicCell&
         std::array<std::int8_t, 3> img{};
         for (int d = 0; d < 3; ++d) {
           int v = cc[d] + off[d];
-          img[static_cast<std::size_t>(d)] = static_cast<std::int8_t>(v < 0 ? -1 : (v >= dims_[d] ? 1 : 0));
-          v -= img[static_cast<std::size_t>(d)] * dims_[d];
+          img[static_cast<std::size_t>(d)] = static_cast<std::int8_t>(v < 0 ? -1 : (v >= dims[d] ? 1 : 0));
+          v -= img[static_cast<std::size_t>(d)] * dims[d];
           cell3[d] = v;
         }
         const Vec3 shift = cell.shift(img);
-        const std::size_t idx = static_cast<std::size_t>(cell3[0] + dims_[0] * (cell3[1] + dims_[1] * cell3[2]));
-        for (std::uint32_t s = cellStart_[idx]; s < cellStart_[idx + 1]; ++s) {
-          const std::uint32_t j = cellItems_[s];
+        const std::size_t idx = g.index(cell3[0], cell3[1], cell3[2]);
+        for (std::uint32_t s = g.start[idx]; s < g.start[idx + 1]; ++s) {
+          const std::uint32_t j = g.items[s];
           if (j <= i) continue;
           const double cut = ri + p.radius[j];
           if (norm2(xi - p.x[j] - shift) < cut * cut) visit(j, img);
@@ -231,16 +265,16 @@ void NeighborList::forPeriodicCandidates(const Particles& p, const PeriodicCell&
 }
 
 void NeighborList::build(const Particles& p, const PeriodicCell* cell) {
-  double rmax = 0.0;
-  for (double r : p.radius) rmax = std::max(rmax, r);
   const bool periodic = cell && cell->enabled;
   if (periodic) {
+    double rmax = 0.0;
+    for (double r : p.radius) rmax = std::max(rmax, r);
     binPeriodic(p, *cell, std::max(2.0 * rmax + skin, 1e-300));
     buildRows(p, [&](std::size_t i, auto&& visit) { forPeriodicCandidates(p, *cell, i, visit); }, true);
     xRef = frac_;
     hRef = cell->h;
   } else {
-    binParticles(p, std::max(2.0 * rmax + skin, 1e-300));
+    binOpen(p);
     buildRows(p, [&](std::size_t i, auto&& visit) {
       forCandidates(p, i, [&](std::uint32_t j) { visit(j, std::array<std::int8_t, 3>{}); });
     }, false);

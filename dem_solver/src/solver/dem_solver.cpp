@@ -159,6 +159,9 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
     for (auto& g : system_.meshes)
       if (g.name == name) group = &g;
     if (!group) {
+      if (system_.cell.enabled)
+        throw SolverError(Code::BAD_INPUT, "mesh '" + name + "': a periodic DEM cell takes no triangle-mesh walls "
+                                           "(their contacts are not searched across the cell's images)");
       system_.meshes.emplace_back();
       group = &system_.meshes.back();
       group->name = name;
@@ -206,11 +209,13 @@ void DemSolver::applyHybridParticles(proto::CouplingData::Reader inputs) {
 }
 
 void DemSolver::defaultSkinFromHybrids() {
-  // A DEM side with no spheres of its own gets the usual default skin
-  // (kDefaultSkinPerRadius) once the hybrid particles bring radii.
-  if (system_.neighbors.skin > 0.0) return;
+  // Without params.skin the default (kDefaultSkinPerRadius x the smallest
+  // radius) takes the hybrid particles' radii in once they arrive: a skin
+  // sized by DEM spheres 16 times larger (H5) listed some 30 same-body
+  // hybrid pairs per particle that never touch, and every step tested them.
+  if (settings_.skinGiven) return;
   double rmin = std::numeric_limits<double>::max();
-  for (const std::uint32_t i : hybrids_.particleIndices()) rmin = std::min(rmin, system_.particles.radius[i]);
+  for (double r : system_.particles.radius) rmin = std::min(rmin, r);
   if (rmin < std::numeric_limits<double>::max()) system_.neighbors.skin = kDefaultSkinPerRadius * rmin;
 }
 

@@ -418,6 +418,7 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   for (double r : system.particles.radius) rmin = std::min(rmin, r);
   // Without spheres of its own the default waits for the hybrid particles' radii (DemSolver).
   system.neighbors.skin = params.positive("skin", system.particles.size() > 0 ? kDefaultSkinPerRadius * rmin : 0.0);
+  settings.skinGiven = params.has("skin");
   settings.dt = params.positive("dt", 0.0);
   settings.force = params.flag("force", false);
   settings.overlapTolerance = params.number("overlap_tolerance", 0.01);
@@ -445,6 +446,10 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
     if (!(system.cell.volume() > 0.0)) per.fail("cell", "cell vectors must be right-handed with positive volume");
     checkCellSize(per, system);
     if (per.has("velocity_gradient")) system.cell.velocityGradient = matrix("velocity_gradient", false);
+    if (!system.meshes.empty())
+      params.fail("walls", "mesh wall '" + system.meshes.front().name +
+                               "' in a periodic cell: triangle-mesh contacts are not searched across the cell's "
+                               "images (use plane walls, or drop params.periodic)");
   }
   if (params.has("bonds")) {
     // bonds: {stiffness: k, neighbours: 1.01}: bond every pair closer than 1.01 (r_i + r_j).

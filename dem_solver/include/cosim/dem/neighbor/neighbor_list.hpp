@@ -1,7 +1,11 @@
 #pragma once
 // Linked-cell neighbour search with a Verlet skin. A half list in compressed
 // rows: row i holds partners j > i whose surfaces are closer than the skin at
-// build time (r_i + r_j + skin, so correct for any size distribution). A
+// build time (r_i + r_j + skin, so correct for any size distribution). Where
+// the radii spread over more than a factor 2 (a few large spheres among many
+// small ones: DEM spheres among hybrid PD particles), the largest tenth gets a
+// grid of its own, so the small particles' cells are sized by their own radii
+// and the search stays O(N) whatever the size ratio. A
 // transposed index lets each particle gather the pair forces it receives
 // without atomics, in a fixed order (results do not depend on thread count).
 // Per-pair contact history travels with the pair across rebuilds.
@@ -29,9 +33,11 @@ class NeighborList {
   void build(const Particles& p, const PeriodicCell* cell = nullptr);
   std::size_t pairs() const { return partner.size(); }
   std::uint64_t builds = 0;
-  /// Particles binned (at the last build) in cells overlapping the box [lo, hi]
-  /// (Cheng 2022 Alg. 2: finite walls registered in the grid by bounding box).
-  void particlesInBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out) const;
+  /// Particles that may lie within their radius + skin of the box [lo, hi]:
+  /// those binned (at the last build) in cells overlapping the box grown by
+  /// the largest radius of their grid and the skin (Cheng 2022 Alg. 2: finite
+  /// walls registered in the grid by bounding box). Open (non-periodic) lists only.
+  void particlesNearBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out) const;
 
   std::vector<std::uint32_t> rowStart;  // n + 1
   std::vector<std::uint32_t> partner;   // j of each pair
@@ -48,9 +54,30 @@ class NeighborList {
   void setExclusions(std::size_t n, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
 
  private:
-  void binParticles(const Particles& p, double cell);
-  /// Turns the per-cell counts in cellStart_ (and cellOf_) into cellItems_.
-  void sortIntoCells(std::size_t n, std::size_t ncell);
+  /// One linked-cell grid: its members counted into cells.
+  struct CellGrid {
+    Vec3 lo;            // corner of cell (0, 0, 0) (open grids)
+    double cell = 1.0;  // cell width (open grids)
+    double rmax = 0.0;  // largest radius binned here
+    int dims[3] = {1, 1, 1};
+    std::vector<std::uint32_t> start, items;  // members of cell c: items[start[c] .. start[c + 1])
+    std::size_t cells() const {
+      return static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]) * static_cast<std::size_t>(dims[2]);
+    }
+    std::size_t index(int x, int y, int z) const {
+      return static_cast<std::size_t>(x) +
+             static_cast<std::size_t>(dims[0]) * (static_cast<std::size_t>(y) + static_cast<std::size_t>(dims[1]) * z);
+    }
+    /// Counting sort: members[k] lies in cell cellOf[k].
+    void fill(const std::vector<std::uint32_t>& members, const std::vector<std::uint32_t>& cellOf);
+    /// Calls visit(lo, hi) with the cell index ranges (per axis) overlapping [a, b].
+    template <class Visit>
+    void forCellsOverlapping(const Vec3& a, const Vec3& b, Visit&& visit) const;
+  };
+
+  void binOpen(const Particles& p);
+  void binOpenGrid(CellGrid& g, const Particles& p, const std::vector<std::uint32_t>& members, const Vec3& lo,
+                   const Vec3& hi);
   template <class Visit>
   void forCandidates(const Particles& p, std::size_t i, Visit&& visit) const;
   template <class Visit>
@@ -59,10 +86,9 @@ class NeighborList {
   void buildRows(const Particles& p, Candidates&& candidates, bool periodic);
   void binPeriodic(const Particles& p, const PeriodicCell& cell, double size);
   std::vector<Vec3> frac_;  // fractional coordinates at build (periodic)
-  Vec3 lo_;
-  int dims_[3] = {1, 1, 1};
-  double cell_ = 1.0;
-  std::vector<std::uint32_t> cellStart_, cellItems_, cellOf_;
+  CellGrid open_[2];        // open lists: small radii, and the largest tenth where split (else empty)
+  CellGrid periodic_;       // periodic lists: one grid in fractional coordinates
+  std::vector<std::uint32_t> cellOf_;  // each particle's cell in periodic_
 };
 
 }  // namespace cosim::dem

@@ -55,6 +55,7 @@ struct RunSettings {
   bool force = false;
   double overlapTolerance = 0.01;
   double energyTolerance = 0.5;  // util::EnergyBalance tolerance (0 = off)
+  bool skinGiven = false;         // params.skin set (else kDefaultSkinPerRadius x the smallest radius)
   long snapshotEvery = 0;
   std::string snapshotFile;
   std::vector<ExportZone> zones;
