@@ -139,6 +139,7 @@ void DemSystem::initialize() {
   }
   neighbors.rowStart.clear();  // force a fresh build
   computeForces(0.0);
+  markDrivenEvaluated();
 }
 
 namespace {
@@ -160,7 +161,8 @@ void DemSystem::advance(double dt) {
   // Most scenes drive no particle: one scan of the flags decides whether to sum their power.
   const bool driven =
       !particles.driven.empty() && std::memchr(particles.driven.data(), 1, particles.driven.size()) != nullptr;
-  const double powerBefore = driven ? drivenPower() : 0.0;
+  if (driven && drivenEvalX_.size() != particles.size()) markDrivenEvaluated();
+  if (driven) drivenForceBefore_ = particles.f;
   if (cell.enabled) {
     // The cell and the particles move with the affine field: H <- H + dt L H, x <- x + dt L x.
     const Mat3& L = cell.velocityGradient;
@@ -185,10 +187,9 @@ void DemSystem::advance(double dt) {
   const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
   computeForces(dt, fused * dt);
   if (fused == 0.0) integrator_->afterForces(particles, dt);
-  // Driven particles moved with v over the step while the system pushed on
-  // them with f: the prescribed motion did -f . v dt, f averaged over the step
-  // (trapezoid, second order like the integrator).
-  if (driven) addDriveWork(-0.5 * (powerBefore + drivenPower()) * dt);
+  // Driven particles moved (set from outside, then with v over the step)
+  // while the system pushed on them with f: the prescribed motion did work.
+  if (driven) addDriveWork(drivenWorkSinceEvaluation(drivenForceBefore_));
   time += dt;
   ++step;
   lap(&PhaseTimes::close);
@@ -196,13 +197,23 @@ void DemSystem::advance(double dt) {
   timedStep_ = false;
 }
 
-double DemSystem::drivenPower() const {
+double DemSystem::drivenWorkSinceEvaluation(const std::vector<Vec3>& forceBefore) {
+  // One trapezoid from the last evaluation point to this one, not one per
+  // segment: a state set from outside jumps before any force is evaluated
+  // there, and charging that jump the force before it alone missed k dx^2 / 2
+  // per contact every exchange (the energy balance of H5's hybrids drifted by it).
   const Particles& p = particles;
-  double power = 0.0;
+  double work = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.driven[i]) power += dot(p.f[i] + (p.weight[i] * p.mass[i]) * gravity, p.v[i]);
-  return power;
+    if (p.driven[i]) {
+      const Vec3 dx = p.x[i] - drivenEvalX_[i];
+      work -= dot(0.5 * (forceBefore[i] + p.f[i]) + (p.weight[i] * p.mass[i]) * gravity, dx);
+      drivenEvalX_[i] = p.x[i];
+    }
+  return work;
 }
+
+void DemSystem::markDrivenEvaluated() { drivenEvalX_ = particles.x; }
 
 void DemSystem::addDriveWork(double work) {
   driveWork += work;
@@ -217,7 +228,6 @@ void DemSystem::setDrivenVelocity(std::size_t i, const Vec3& v) {
 
 void DemSystem::setDrivenState(std::size_t i, const Vec3& x, const Vec3& v) {
   Particles& p = particles;
-  addDriveWork(-dot(p.f[i] + (p.weight[i] * p.mass[i]) * gravity, x - p.x[i]));
   p.x[i] = x;
   setDrivenVelocity(i, v);
 }

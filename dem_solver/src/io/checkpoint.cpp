@@ -304,6 +304,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
   }
   checkRestored(s, path);
+  s.markDrivenEvaluated();  // written after a step: the forces are those of these positions
 }
 
 }  // namespace cosim::dem

@@ -180,7 +180,7 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
     throw SolverError(Error::Code::BAD_INPUT, "advance: dt = " + std::to_string(req.dt) +
                                                   " s exceeds the PD critical step " + std::to_string(crit) +
-                                                  " s (Hartmann Eqs. 41-42); set 'force: true' to override");
+                                                  " s (0.45 delta / c_p, docs/pd.md); set 'force: true' to override");
   std::vector<double> f0, f1;
   const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
   // Forces sent with their stiffness follow their particles over the sub-steps
@@ -385,9 +385,9 @@ cosim::wire::NamedValues PdSolver::energies() const {
     std::ostringstream m;
     m.precision(6);
     m << *broken << ", at t = " << system_.time() << " s (step " << system_.stepCount()
-      << "): the PD integration is unstable at dt = " << lastDt_ << " s (critical step dx / c = "
+      << "): the PD integration is unstable at dt = " << lastDt_ << " s (critical step 0.45 delta / c_p = "
       << system_.criticalTimeStep()
-      << " s, Hartmann Eqs. 41-42); lower dt, or set params.energy_tolerance: 0 to turn the check off";
+      << " s); lower dt, or set params.energy_tolerance: 0 to turn the check off";
     throw SolverError(Error::Code::SOLVER_FAILURE, m.str());
   }
   return {{"kinetic", e.kinetic}, {"strain", e.strain}, {"external_work", e.externalWork}};

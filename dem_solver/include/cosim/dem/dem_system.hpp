@@ -74,9 +74,12 @@ class DemSystem {
   /// changes by is work of the prescribed motion (driveWork, externalWork).
   void setDrivenVelocity(std::size_t i, const Vec3& v);
   /// Sets driven particle i's position and velocity from outside. Moving it
-  /// against the force on it (contacts, walls and its weight, from the last
-  /// evaluation) is work of the prescribed motion too: -(f + w m g) . dx.
+  /// against the force on it (contacts, walls and its weight) is work of the
+  /// prescribed motion too, counted at the next force evaluation (advance).
   void setDrivenState(std::size_t i, const Vec3& x, const Vec3& v);
+  /// Restarts the driven particles' work count from the current positions
+  /// (after a restore: a checkpoint is written where the forces were evaluated).
+  void markDrivenEvaluated();
   /// Forces and torques of the current positions and velocities. With
   /// closingKick > 0 each free particle is then kicked over closingKick
   /// (Integrator::fusedKick) as soon as its force is complete.
@@ -111,10 +114,14 @@ class DemSystem {
   template <bool Periodic, class Normal, class Tangential>
   void pairLoop(const Normal& normal, const Tangential& tangential, double dt);
   void gatherForces(double dt, double closingKick);
-  /// sum over driven particles of (f + w m g) . v: the power that holding
-  /// them on their prescribed path takes, with the opposite sign.
-  double drivenPower() const;
+  /// Work of the prescribed motion of driven particles since their last force
+  /// evaluation: -(f_before + f_after) / 2 . (x - x_eval) - w m g . (x - x_eval)
+  /// each, one trapezoid over the whole move (set from outside and moved
+  /// with v alike), so exact for linear forces and second order otherwise.
+  double drivenWorkSinceEvaluation(const std::vector<Vec3>& forceBefore);
   void addDriveWork(double work);
+  std::vector<Vec3> drivenEvalX_;        // each particle's position at the last force evaluation
+  std::vector<Vec3> drivenForceBefore_;  // forces before a step's evaluation (buffer reused)
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
   /// Adds the time since the last lap to `phase` while a timed step runs.
