@@ -162,7 +162,6 @@ void DemSystem::advance(double dt) {
   const bool driven =
       !particles.driven.empty() && std::memchr(particles.driven.data(), 1, particles.driven.size()) != nullptr;
   if (driven && drivenEvalX_.size() != particles.size()) markDrivenEvaluated();
-  if (driven) drivenForceBefore_ = particles.f;
   if (cell.enabled) {
     // The cell and the particles move with the affine field: H <- H + dt L H, x <- x + dt L x.
     const Mat3& L = cell.velocityGradient;
@@ -189,7 +188,7 @@ void DemSystem::advance(double dt) {
   if (fused == 0.0) integrator_->afterForces(particles, dt);
   // Driven particles moved (set from outside, then with v over the step)
   // while the system pushed on them with f: the prescribed motion did work.
-  if (driven) addDriveWork(drivenWorkSinceEvaluation(drivenForceBefore_));
+  if (driven) addDriveWork(drivenWorkSinceEvaluation());
   time += dt;
   ++step;
   lap(&PhaseTimes::close);
@@ -197,7 +196,7 @@ void DemSystem::advance(double dt) {
   timedStep_ = false;
 }
 
-double DemSystem::drivenWorkSinceEvaluation(const std::vector<Vec3>& forceBefore) {
+double DemSystem::drivenWorkSinceEvaluation() {
   // One trapezoid from the last evaluation point to this one, not one per
   // segment: a state set from outside jumps before any force is evaluated
   // there, and charging that jump the force before it alone missed k dx^2 / 2
@@ -207,13 +206,17 @@ double DemSystem::drivenWorkSinceEvaluation(const std::vector<Vec3>& forceBefore
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.driven[i]) {
       const Vec3 dx = p.x[i] - drivenEvalX_[i];
-      work -= dot(0.5 * (forceBefore[i] + p.f[i]) + (p.weight[i] * p.mass[i]) * gravity, dx);
+      work -= dot(0.5 * (drivenEvalF_[i] + p.f[i]) + (p.weight[i] * p.mass[i]) * gravity, dx);
       drivenEvalX_[i] = p.x[i];
+      drivenEvalF_[i] = p.f[i];
     }
   return work;
 }
 
-void DemSystem::markDrivenEvaluated() { drivenEvalX_ = particles.x; }
+void DemSystem::markDrivenEvaluated() {
+  drivenEvalX_ = particles.x;
+  drivenEvalF_ = particles.f;
+}
 
 void DemSystem::addDriveWork(double work) {
   driveWork += work;
@@ -249,7 +252,7 @@ void DemSystem::computeForces(double dt, double closingKick) {
       std::vector<std::vector<std::uint32_t>> perParticle(n);
       for (std::size_t t = 0; t < m.triangles.size(); ++t) {
         Vec3 lo, hi;
-        m.boundingBox(t, 0.0, lo, hi);
+        m.boundingBox(t, lo, hi);
         neighbors.particlesNearBox(lo, hi, found);
         const auto& tri = m.triangles[t];
         for (std::uint32_t i : found) {

@@ -56,17 +56,13 @@ void TriangleWallGroup::validate() const {
   }
 }
 
-void TriangleWallGroup::boundingBox(std::size_t t, double margin, Vec3& lo, Vec3& hi) const {
+void TriangleWallGroup::boundingBox(std::size_t t, Vec3& lo, Vec3& hi) const {
   lo = hi = vertices[triangles[t][0]];
   for (int k = 1; k < 3; ++k)
     for (int d = 0; d < 3; ++d) {
       lo[d] = std::min(lo[d], vertices[triangles[t][k]][d]);
       hi[d] = std::max(hi[d], vertices[triangles[t][k]][d]);
     }
-  for (int d = 0; d < 3; ++d) {
-    lo[d] -= margin;
-    hi[d] += margin;
-  }
 }
 
 bool TriangleWallGroup::movedBeyond(double limit) const {

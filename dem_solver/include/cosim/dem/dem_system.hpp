@@ -118,10 +118,10 @@ class DemSystem {
   /// evaluation: -(f_before + f_after) / 2 . (x - x_eval) - w m g . (x - x_eval)
   /// each, one trapezoid over the whole move (set from outside and moved
   /// with v alike), so exact for linear forces and second order otherwise.
-  double drivenWorkSinceEvaluation(const std::vector<Vec3>& forceBefore);
+  double drivenWorkSinceEvaluation();
   void addDriveWork(double work);
-  std::vector<Vec3> drivenEvalX_;        // each particle's position at the last force evaluation
-  std::vector<Vec3> drivenForceBefore_;  // forces before a step's evaluation (buffer reused)
+  // Each particle's position and force at the last force evaluation (read for driven ones).
+  std::vector<Vec3> drivenEvalX_, drivenEvalF_;
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
   /// Adds the time since the last lap to `phase` while a timed step runs.

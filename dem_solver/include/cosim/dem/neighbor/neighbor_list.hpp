@@ -70,7 +70,7 @@ class NeighborList {
     }
     /// Counting sort: members[k] lies in cell cellOf[k].
     void fill(const std::vector<std::uint32_t>& members, const std::vector<std::uint32_t>& cellOf);
-    /// Calls visit(lo, hi) with the cell index ranges (per axis) overlapping [a, b].
+    /// Calls visit(first, last) with the members of each cell overlapping the box [a, b].
     template <class Visit>
     void forCellsOverlapping(const Vec3& a, const Vec3& b, Visit&& visit) const;
   };

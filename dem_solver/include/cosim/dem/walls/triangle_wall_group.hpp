@@ -40,8 +40,8 @@ class TriangleWallGroup {
 
   /// Checks indices and degenerate triangles; throws naming the triangle.
   void validate() const;
-  /// Bounding box of triangle t grown by margin (Cheng 2022 Alg. 2).
-  void boundingBox(std::size_t t, double margin, Vec3& lo, Vec3& hi) const;
+  /// Bounding box of triangle t (Cheng 2022 Alg. 2; the neighbour grid grows it).
+  void boundingBox(std::size_t t, Vec3& lo, Vec3& hi) const;
   /// True when a vertex moved more than limit since the candidates were built.
   bool movedBeyond(double limit) const;
   void markBuilt() { verticesRef_ = vertices; }
