@@ -90,6 +90,9 @@ struct Advanced {
   criticalDt @3 :Float64;    # the solver's stable step now; 0: no limit, or not asked for
   energies @4 :List(Data.NamedValue);
   outputs @5 :Data.CouplingData;
+  computeStartedAt @6 :Float64; # the solver's monotonic clock [s] when the compute began (0: not
+                                # reported); on one host it is the coupler's clock too, which lets the
+                                # run report tell where solvers computed at once (parallel rounds)
 }
 
 struct FieldsRequest {

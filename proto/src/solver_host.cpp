@@ -288,6 +288,7 @@ struct SolverHost::Impl {
     }
     // Energies and the critical step are the solver's work too (sweeps over its model), not the wire's.
     done.setComputeSeconds(monotonicSeconds() - start);
+    done.setComputeStartedAt(start);
     data.send(m);
   }
 

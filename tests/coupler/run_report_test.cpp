@@ -1,4 +1,5 @@
-// The run report's host line: busy, idle and steal time; steal as a share of the machine's time.
+// The run report's host line (busy, idle and steal time; steal as a share of
+// the machine's time) and the communication of exchange rounds.
 #include <gtest/gtest.h>
 
 #include "cosim/coupler/analysis/run_report.hpp"
@@ -16,6 +17,50 @@ TEST(RunReport, StealIsAShareOfEveryCpusWallTime) {
   const auto text = r.text();
   EXPECT_NE(text.find("host          2 CPUs busy 15.000 s, idle 4.000 s, steal 1.000 s (5.000 % of their time)"), std::string::npos)
       << text;
+}
+
+// One solver per round: the round trip less its compute, wherever its clock is.
+TEST(RunReport, ARoundOfOneSolverCommunicatesItsRoundTripLessItsCompute) {
+  EXPECT_NEAR(roundCommunicationSeconds({{10.0, 10.5, 0.4, 10.05}}), 0.1, 1e-12);
+  EXPECT_NEAR(roundCommunicationSeconds({{10.0, 10.5, 0.4, 0.0}}), 0.1, 1e-12);   // start not reported
+  EXPECT_NEAR(roundCommunicationSeconds({{10.0, 10.5, 0.4, 777.0}}), 0.1, 1e-12); // another host's clock
+  EXPECT_EQ(roundCommunicationSeconds({}), 0.0);
+}
+
+// Two solvers computing at once on two CPUs: each waits for the other, but the
+// round's communication is what lies outside both computes (the old per-peer
+// sum counted 0.3 + 0.1 s for a round of 0.55 s with 0.05 s outside compute).
+TEST(RunReport, SolversComputingAtOnceCountTheirOverlapOnce) {
+  const std::vector<RoundTrip> parallel{{0.0, 0.55, 0.2, 0.02}, {0.001, 0.53, 0.5, 0.025}};
+  EXPECT_NEAR(roundCommunicationSeconds(parallel), 0.55 - 0.505, 1e-12);
+}
+
+// Packed on one CPU the second solver starts when the first is done: the
+// computes follow each other, and only the gaps are communication. Without
+// reported starts each compute is taken to end at its reply.
+TEST(RunReport, SolversTakingTurnsOnOneCpuLeaveOnlyTheGaps) {
+  std::vector<RoundTrip> packed{{0.0, 0.52, 0.2, 0.01}, {0.0, 0.5, 0.28, 0.215}};
+  EXPECT_NEAR(roundCommunicationSeconds(packed), 0.52 - 0.48, 1e-12);
+  for (auto& r : packed) r.computeStartedAt = 0.0;
+  // [0.32, 0.52] and [0.22, 0.5]: 0.3 s covered of 0.52.
+  EXPECT_NEAR(roundCommunicationSeconds(packed), 0.22, 1e-12);
+}
+
+TEST(RunReport, OverheadIsTheRoundsCommunicationPlusMapping) {
+  RunReport r;
+  r.loopS = 10.0;
+  r.mappingS = 1.0;
+  r.communicationS = 2.0;
+  for (const char* name : {"a", "b"}) {  // each waited for the other: their own figures overlap
+    PeerTiming p;
+    p.name = name;
+    p.communicationS = 5.0;
+    r.peers.push_back(p);
+  }
+  EXPECT_DOUBLE_EQ(r.couplingOverheadShare(), 0.3);
+  EXPECT_NE(r.text().find("overhead      communication 2.000 s + mapping = 30.000 % of the exchange loop"),
+            std::string::npos)
+      << r.text();
 }
 
 }  // namespace

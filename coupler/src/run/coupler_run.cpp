@@ -152,10 +152,14 @@ class CouplerRun final : public ExchangeDriver {
     auto replies = session_->awaitReplies(pending);
     time_ = newTime;
     std::set<std::string> advanced;
+    std::vector<RoundTrip> round;
     for (std::size_t i = 0; i < replies.size(); ++i) {
+      auto adv = replies[i].message.envelope().getBody().getAdvanced();
+      round.push_back({sentAt[i], replies[i].receivedAt, adv.getComputeSeconds(), adv.getComputeStartedAt()});
       takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt);
       advanced.insert(pending[i].first);
     }
+    report_.communicationS += roundCommunicationSeconds(round);
     runCouplings(advanced);
     record();
     completed_ = exchange_;

@@ -17,7 +17,8 @@ struct PeerTiming {
   std::string kind;
   std::string version;
   double computeS = 0.0;        // inside the solver's advance, as it reports
-  double communicationS = 0.0;  // request round trips minus compute
+  double communicationS = 0.0;  // request round trips minus compute (in a round where solvers
+                                // compute at once, waiting for the others counts here too)
   std::uint64_t messagesSent = 0;
   std::uint64_t messagesReceived = 0;
   std::uint64_t bytesSent = 0;
@@ -37,6 +38,24 @@ struct ErrorFigure {
   double value = 0.0;
 };
 
+/// One solver's request in an exchange round, on the coupler's monotonic clock.
+struct RoundTrip {
+  double sentAt = 0.0;            // just before the request went out
+  double receivedAt = 0.0;        // when the reply was taken off the socket
+  double computeS = 0.0;          // the solver's advance, as it reports
+  double computeStartedAt = 0.0;  // the solver's clock when it began (0: not reported)
+};
+
+/// The wall time of one exchange round spent outside every solver's compute:
+/// from the first send to the last reply, less the union of the compute
+/// intervals. Where solvers compute at once (a parallel schedule, a pool of
+/// workers), each one's round trip covers the others' compute, so summing the
+/// peers' round trips less their own compute counts the overlap several times
+/// (shares above 100 %). A solver's reported start is used where it lies on the
+/// coupler's clock (same host: between the send and the reply); otherwise its
+/// compute is taken to end when its reply arrived.
+double roundCommunicationSeconds(const std::vector<RoundTrip>& round);
+
 struct RunReport {
   std::string scene;
   std::string sceneFile;
@@ -54,6 +73,7 @@ struct RunReport {
   double startupS = 0.0;   // launch, handshake and setup
   double loopS = 0.0;      // the exchange loop
   double mappingS = 0.0;   // couplings and request assembly in the coupler
+  double communicationS = 0.0;  // exchange rounds outside every solver's compute (roundCommunicationSeconds)
   double outputS = 0.0;    // HDF5 series and flushes
   /// What the whole machine did over the run (Linux): busy and steal time
   /// of every CPU, other processes' and the hypervisor's work included.
@@ -64,7 +84,8 @@ struct RunReport {
   std::map<std::string, double> figures;        // a scene's own numbers (drift, peak energy ...)
   std::vector<std::string> warnings;            // e.g. a step above a solver's critical step
 
-  /// Communication of every peer plus the coupler's mapping, as a share of the exchange loop.
+  /// Communication (the rounds' time outside every solver's compute) plus the
+  /// coupler's mapping, as a share of the exchange loop.
   double couplingOverheadShare() const;
   /// The hypervisor's steal time as a share of the machine's CPU time over
   /// the run (CPUs x wall); 0 where the host's times are unknown.
