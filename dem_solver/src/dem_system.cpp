@@ -462,6 +462,7 @@ void DemSystem::gatherForces(double dt, double closingKick) {
       const std::size_t end = chunkEnd(chunk);
       local.planeForce.assign(nw, {});
       local.planeTorque.assign(nw, {});
+      local.planeStiffness.assign(nw, 0.0);
       local.meshForce.assign(nm, {});
       local.meshTorque.assign(nm, {});
       for (std::size_t i = chunk * kRowsPerChunk; i < end; ++i) {
@@ -507,7 +508,10 @@ void DemSystem::gatherForces(double dt, double closingKick) {
       local.work = sums.work;
     }
   }
-  for (auto& w : planes) w.force = w.torque = {};
+  for (auto& w : planes) {
+    w.force = w.torque = {};
+    w.stiffness = 0.0;
+  }
   for (auto& m : meshes) m.force = m.torque = {};
   for (const GatherPartial& part : gatherPartials_) {
     dissipated += part.dissipated;
@@ -515,6 +519,7 @@ void DemSystem::gatherForces(double dt, double closingKick) {
     for (std::size_t wl = 0; wl < nw && wl < part.planeForce.size(); ++wl) {
       planes[wl].force += part.planeForce[wl];
       planes[wl].torque += part.planeTorque[wl];
+      planes[wl].stiffness += part.planeStiffness[wl];
     }
     for (std::size_t g = 0; g < nm && g < part.meshForce.size(); ++g) {
       meshes[g].force += part.meshForce[g];
@@ -552,9 +557,11 @@ void DemSystem::addPlaneContacts(std::size_t i, double w, double dt, GatherParti
     const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
     const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
     double lost = 0.0;
-    Vec3 fw = law_->force(wall.normal, overlap, vrel, ri, p.mass[i], materials.pair(p.material[i], wall.material), dt,
-                          shear, lost);
+    const PairMaterial& pm = materials.pair(p.material[i], wall.material);
+    Vec3 fw = law_->force(wall.normal, overlap, vrel, ri, p.mass[i], pm, dt, shear, lost);
     fw *= w;
+    // A servo's stability depends on how stiffly its contacts answer (PlaneWall::servoLoopGain).
+    if (wall.mode == PlaneWall::Mode::servo) local.planeStiffness[wl] += w * law_->normal().evaluate(overlap, ri, pm).stiffness;
     planeContactForce[wl][i] = fw;
     sums.dissipated += w * lost;
     sums.work += dot(fw, wall.velocity) * dt;

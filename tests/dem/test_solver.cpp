@@ -507,6 +507,45 @@ TEST(DemSolver, ABrokenEnergyBalanceStopsTheRunWithTheNumbers) {
   EXPECT_NE(errorOf(scene(head + "      energy_tolerance: -1\n")).find("energy_tolerance"), std::string::npos);
 }
 
+// A sphere squeezed by a servo lid: with the gain at half the stable one the
+// lid settles on its target load; with a gain whose loop gain G dt k passes 1
+// (it overshoots every step) the run stops at that step, naming the wall, the
+// key and the gain that would do, instead of ringing on at the step rate.
+TEST(DemSolver, AServoWallTooFastForItsContactsStopsTheRun) {
+  auto squeeze = [](double gain, int steps) {
+    const std::string yaml = scene(R"(
+      contact: {normal: hertz, tangential: none, damping: restitution}
+      materials: [{name: glass, density: 2500, young: 1.0e8, poisson: 0.25, restitution: 0.5}]
+      particles: [{sphere: {position: [0, 0, 0.01], radius: 0.01}}]
+      walls:
+        - {type: plane, point: [0, 0, 0], normal: [0, 0, 1]}
+        - {type: plane, name: lid, point: [0, 0, 0.02], normal: [0, 0, -1], mode: servo, stress: 1.0e5,
+           area: 1.0e-4, gain: )" + std::to_string(gain) + "}\n");
+    Harness h;
+    DemSolver s;
+    h.setup(s, yaml);
+    for (int k = 0; k < steps; ++k) h.advance(s, 1, 1e-5);
+    return s.system().planes[1];
+  };
+  // Target 10 N. The servo is a dashpot of 1 / G = 100 N s/m against the
+  // sphere's contacts (overdamped); its loop gain G dt S_n at the target is 0.02.
+  const PlaneWall lid = squeeze(0.01, 5000);
+  std::printf("servo lid: load %.6f N (target 10 N), loop gain %.3f\n", -dot(lid.force, lid.normal),
+              lid.servoLoopGain(1e-5));
+  EXPECT_NEAR(-dot(lid.force, lid.normal), 10.0, 1e-3);
+  // S_n = 3 F / (2 overlap) for Hertz: the stiffness the servo saw is the law's tangent.
+  const double overlap = (0.02 - lid.point.z) / 2.0;  // the sphere pressed alike by floor and lid
+  EXPECT_NEAR(lid.stiffness, 1.5 * 10.0 / overlap, 1e-3 * lid.stiffness);
+  try {
+    squeeze(3.0, 100);
+    ADD_FAILURE() << "a servo with loop gain above 1 ran on";
+  } catch (const wire::SolverError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("servo wall 'lid' is unstable: params.walls gain 3 m/(N s)"), std::string::npos) << what;
+    EXPECT_NE(what.find("use gain <="), std::string::npos) << what;
+  }
+}
+
 // Params that name a material, a sphere and a wall around the text under test.
 const std::string kGlass = "      materials: [{name: glass, density: 2500, young: 7.0e10, poisson: 0.3, friction: 0.3}]\n";
 const std::string kOneSphere = "      particles: [{sphere: {position: [0, 0, 0.0101], radius: 0.01}}]\n";

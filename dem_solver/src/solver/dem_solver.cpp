@@ -268,6 +268,7 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     // work of the prescribed motion, counted in the step (DemSystem::advance).
     drive(request.dt);
     system_.advance(request.dt);
+    checkServoWalls(request.dt);
     accumulateWallContacts();
     hybrids_.accumulate(system_.particles);
     for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
@@ -315,6 +316,22 @@ void DemSolver::checkFinite() const {
                                                     std::to_string(p.id[i]) + " has a non-finite " +
                                                     (std::isfinite(p.x[i][d]) ? "velocity" : "position") +
                                                     " (dt too large or contact law unstable)");
+}
+
+/// A servo whose loop gain G dt k passes 1 overshoots its target every step
+/// and rings at the step frequency (above 2 it diverges): stopped here with the
+/// gain it would need, not left to chatter or to blow up later as a NaN.
+void DemSolver::checkServoWalls(double dt) const {
+  for (const PlaneWall& w : system_.planes) {
+    const double loop = w.servoLoopGain(dt);
+    if (!(loop > 1.0)) continue;
+    std::ostringstream m;
+    m << "step " << system_.step << ": servo wall '" << w.name << "' is unstable: params.walls gain " << w.servoGain
+      << " m/(N s) x dt " << dt << " s x the stiffness of its contacts " << w.stiffness << " N/m = " << loop
+      << " > 1, so it overshoots its target stress every step; use gain <= " << 0.5 / (dt * w.stiffness)
+      << " (loop gain 0.5) or a smaller dt";
+    throw SolverError(Code::BAD_INPUT, m.str());
+  }
 }
 
 void DemSolver::selectZoneMembers() {

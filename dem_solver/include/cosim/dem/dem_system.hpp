@@ -144,6 +144,7 @@ class DemSystem {
   struct GatherPartial {
     double dissipated = 0.0, work = 0.0;
     std::vector<Vec3> planeForce, planeTorque, meshForce, meshTorque;
+    std::vector<double> planeStiffness;
   };
   std::vector<GatherPartial> gatherPartials_;
   /// Energy lost and work done in one chunk of the gather, summed in particle order.

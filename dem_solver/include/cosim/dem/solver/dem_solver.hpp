@@ -56,6 +56,7 @@ class DemSolver final : public wire::Solver {
   void selectDriveMembers();
   void drive(double dt);
   void checkFinite() const;
+  void checkServoWalls(double dt) const;
   /// Throws when the energy balance broke (params.energy_tolerance).
   void checkEnergyBalance(const Energies& e) const;
   DemSystem system_;

@@ -23,11 +23,16 @@ struct PlaneWall {
   // Accumulated over the last force evaluation: force and torque (about point)
   // the particles exert on the wall.
   Vec3 force, torque;
+  double stiffness = 0.0;  // servo walls: summed normal tangent stiffness S_n of their contacts [N/m]
 
   /// Signed distance of x from the plane (positive on the particle side).
   double distance(const Vec3& x) const { return dot(x - point, normal); }
   /// Moves the wall over one step (servo: velocity from the force error).
   void move(double dt);
+  /// A servo's load error shrinks each step by the factor 1 - G dt k (G the
+  /// gain, k the contacts' stiffness against the wall): above 1 the wall
+  /// overshoots its target every step, above 2 the error grows.
+  double servoLoopGain(double dt) const { return mode == Mode::servo ? servoGain * dt * stiffness : 0.0; }
 };
 
 }  // namespace cosim::dem
