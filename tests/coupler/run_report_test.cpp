@@ -46,6 +46,15 @@ TEST(RunReport, SolversTakingTurnsOnOneCpuLeaveOnlyTheGaps) {
   EXPECT_NEAR(roundCommunicationSeconds(packed), 0.22, 1e-12);
 }
 
+TEST(RunReport, EnergiesKeepTheirSignificantDigitsAtAnyScale) {
+  RunReport r;
+  r.finalEnergies = {{"pile.kinetic", 4.104145e-6}, {"pack.strain", 12345.678901}, {"bad.potential", 2e305}};
+  const auto text = r.text();
+  EXPECT_NE(text.find("pile.kinetic = 4.104145e-06 J"), std::string::npos) << text;
+  EXPECT_NE(text.find("pack.strain = 12345.68 J"), std::string::npos) << text;
+  EXPECT_NE(text.find("bad.potential = 2e+305 J"), std::string::npos) << text;
+}
+
 TEST(RunReport, OverheadIsTheRoundsCommunicationPlusMapping) {
   RunReport r;
   r.loopS = 10.0;

@@ -296,6 +296,30 @@ TEST(GoodScene, FixedExchangeCountInsteadOfEndTime) {
   EXPECT_EQ(scene.output.flushInterval, 5);
 }
 
+// A run ends on an exchange: an end_time between two is rounded up, and the
+// schedule's description says where the run ends, as the report does.
+TEST(GoodScene, AnEndTimeBetweenExchangesIsRoundedUpAndSaysSo) {
+  TempDir dir;
+  for (const char* kind : {"kind: lockstep, dt: 1.0e-3, steps_per_exchange: 4",
+                           "kind: multirate, fine: left, dt: 1.0e-3, ratio: 4"}) {
+    const auto path = dir.write("round.yaml", std::string("scene: round\nschedule: {") + kind +
+                                                  ", end_time: 0.01}\n"
+                                                  "solvers:\n  - {name: left, kind: mock}\n  - {name: right, kind: mock}\n");
+    const Scene scene = loadScene(path);
+    EXPECT_EQ(scene.schedule->exchanges(), 3u) << kind;
+    EXPECT_NEAR(scene.schedule->endTime(), 0.012, 1e-12) << kind;
+    EXPECT_NE(scene.schedule->describe().find(
+                  "until t = 0.012 s: end_time 0.01 s rounded up to whole exchanges of 0.004 s"),
+              std::string::npos)
+        << scene.schedule->describe();
+  }
+  const auto exact = dir.write("exact.yaml", "scene: exact\nschedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                             "solvers:\n  - {name: left, kind: mock}\n");
+  const std::string text = loadScene(exact).schedule->describe();
+  EXPECT_NE(text.find("until t = 0.01 s"), std::string::npos) << text;
+  EXPECT_EQ(text.find("rounded"), std::string::npos) << text;
+}
+
 TEST(GoodScene, BinaryPathIsResolvedNextToTheScene) {
   TempDir dir;
   dir.write("my_solver", "#!/bin/sh\nexit 0\n");

@@ -550,6 +550,22 @@ TEST(DemSolver, AServoWallTooFastForItsContactsStopsTheRun) {
 const std::string kGlass = "      materials: [{name: glass, density: 2500, young: 7.0e10, poisson: 0.3, friction: 0.3}]\n";
 const std::string kOneSphere = "      particles: [{sphere: {position: [0, 0, 0.0101], radius: 0.01}}]\n";
 
+// Gravity of 1e308 m/s^2 is finite, so setup takes it; the first advance runs
+// into the floor and non-finite positions, and the message names gravity among the causes.
+TEST(DemSolver, ANonFiniteStateNamesTheGravityItRanUnder) {
+  Harness h;
+  DemSolver s;
+  h.setup(s, scene("      gravity: [0, 0, -1.0e308]\n      walls: [{type: plane, normal: [0, 0, 1]}]\n" + kOneSphere));
+  try {
+    h.advance(s, 10, 1e-5);
+    ADD_FAILURE() << "a sphere under 1e308 m/s^2 ran on";
+  } catch (const wire::SolverError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("particle 0 has a non-finite"), std::string::npos) << what;
+    EXPECT_NE(what.find("params.gravity [0, 0, -1e+308] m/s^2 too large"), std::string::npos) << what;
+  }
+}
+
 // Each bad value is refused with its file, line and key path, and the message says what is wrong.
 void expectRefused(const std::string& params, const std::string& expected) {
   const std::string e = errorOf(scene(params));

@@ -109,7 +109,9 @@ std::string RunReport::text() const {
   for (const auto& [name, v] : figures)
     s << "  figure        " << name << " = " << std::defaultfloat << std::setprecision(6) << v << std::fixed << "\n";
   for (const auto& w : warnings) s << "  warning       " << w << "\n";
-  for (const auto& [name, e] : finalEnergies) s << "  energy        " << name << " = " << std::setprecision(6) << e << " J\n";
+  // Energies too span many scales (4e-6 J of a settled pile, 1e4 J of a squeezed pack): significant digits.
+  for (const auto& [name, e] : finalEnergies)
+    s << "  energy        " << name << " = " << std::defaultfloat << std::setprecision(7) << e << std::fixed << " J\n";
   s << "  output        " << runDir << "\n";
   return s.str();
 }

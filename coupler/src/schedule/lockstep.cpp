@@ -46,7 +46,7 @@ class Lockstep final : public Schedule {
     s << "lockstep: dt = " << (autoDt_ && dt_ == 0.0 ? std::string("auto") : toString(dt_)) << " s, "
       << stepsPerExchange_ << " step(s) per exchange, ";
     if (fixedExchanges_) s << *fixedExchanges_ << " exchanges";
-    else s << "until t = " << (endTime_ ? *endTime_ : 0.0) << " s";
+    else s << untilText(endTime_ ? *endTime_ : 0.0, dt_ * stepsPerExchange_);
     return s.str();
   }
 

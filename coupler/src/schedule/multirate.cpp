@@ -60,7 +60,7 @@ class Multirate final : public Schedule {
       << (sequence_ == Sequence::coarseFirst ? "coarse solvers first"
           : sequence_ == Sequence::fineFirst ? "fine solver first" : "all at once") << ", ";
     if (fixedSteps_) s << *fixedSteps_ << " coarse steps";
-    else s << "until t = " << (endTime_ ? *endTime_ : 0.0) << " s";
+    else s << untilText(endTime_ ? *endTime_ : 0.0, coarseDt());
     return s.str();
   }
 

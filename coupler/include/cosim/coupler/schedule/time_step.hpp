@@ -38,4 +38,15 @@ inline std::string formatNumber(double v) {
   return s.str();
 }
 
+/// "until t = 0.3 s"; where the last interval overshoots end_time, says so and
+/// where the run ends ("until t = 0.005 s: end_time 0.001 s rounded up to whole
+/// exchanges of 0.005 s"), so the description matches the report's end time.
+inline std::string untilText(double endTime, double interval) {
+  const double reached = static_cast<double>(intervalsUntil(endTime, interval)) * interval;
+  if (!(interval > 0.0) || std::fabs(reached - endTime) <= 1e-9 * endTime)
+    return "until t = " + formatNumber(endTime) + " s";
+  return "until t = " + formatNumber(reached) + " s: end_time " + formatNumber(endTime) +
+         " s rounded up to whole exchanges of " + formatNumber(interval) + " s";
+}
+
 }  // namespace cosim::coupler
