@@ -120,6 +120,9 @@ class DemSystem {
   /// with v alike), so exact for linear forces and second order otherwise.
   double drivenWorkSinceEvaluation();
   void addDriveWork(double work);
+  /// Adds the tangential part of a driven particle's jump (its state set from
+  /// outside less where DEM had moved it) to the history of its contacts.
+  void carryJumpIntoHistory(std::size_t i, const Vec3& jump);
   // Each particle's position and force at the last force evaluation (read for driven ones).
   std::vector<Vec3> drivenEvalX_, drivenEvalF_;
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
