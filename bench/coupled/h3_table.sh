@@ -31,12 +31,12 @@ while [ $# -gt 0 ]; do
     --paper-speed)
       scale=1
       v=0.01
-      # walls at the paper's 0.01 m/s for 12 s; snapshots every 40000 coarse steps = 1 s
+      # walls at the paper's 0.01 m/s for 12 s; snapshots every 66800 steps of 0.1 / 6680 s = 1 s
       sets+=(--set "solvers.spheres.params.walls[0].velocity=[0, 0, -0.01]"
              --set "solvers.spheres.params.walls[1].velocity=[0, 0, 0.01]"
              --set schedule.end_time=12.0
-             --set solvers.cube.params.output.every=40000
-             --set solvers.spheres.params.snapshots.every=40000)
+             --set solvers.cube.params.output.every=66800
+             --set solvers.spheres.params.snapshots.every=66800)
       shift ;;
     --free) guides=0; shift ;;
     *) break ;;

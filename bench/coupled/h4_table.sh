@@ -22,10 +22,10 @@ sets=()
 if [ "${1:-}" = "--paper-speed" ]; then
   shift
   scale=1
-  # pusher at the paper's 0.01 m/s for 22.15 s; snapshots every 3200 coarse steps = 0.05 s
+  # pusher at the paper's 0.01 m/s for 22.15 s; snapshots every 3340 steps of 0.005 / 334 s = 0.05 s
   sets=(--set "solvers.spheres.params.particles[0].sphere.velocity=[0, 0, -0.01]"
         --set schedule.end_time=22.15
-        --set solvers.body.params.output.every=3200)
+        --set solvers.body.params.output.every=3340)
 fi
 work=${WORK:-$(mktemp -d /tmp/h4-table.XXXXXX)}
 mkdir -p "$work"
