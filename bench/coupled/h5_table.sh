@@ -14,14 +14,15 @@
 #   BIN: a directory holding coupler, pd_solver and dem_solver, or a build
 #   directory with them in bin/ (default: <repo>/build/bin); e.g. /work/hbin.
 #   VARIANTS: comma-separated subset of mixed,all-pd,all-dem (default: all three).
-#   --coarse: PD spheres at dx = 0.03 m (552 particles each, 16x cheaper:
-#   8x fewer particles, 2x the step dt_PD = 7.8125e-6 s, m = 4, so DEM keeps
-#   its 3.125e-5 s); the geometry is unchanged (its gaps allow dx 0.03 too).
+#   --coarse: PD spheres at dx = 0.03 m (552 particles each, 8x fewer) with
+#   the staggered update at dt_PD = 7.8125e-6 s, m = 4 (DEM at 3.125e-5 s), as
+#   before session 21; the geometry is unchanged (its gaps allow dx 0.03 too).
 #   --time-scale S: the walls move S times faster (S x 0.1 m/s) for 3 / S s,
 #   snapshots every 0.25 / S s, and the paper's times are read at t / S. With
 #   rate-independent contacts (Hertz-Mindlin, Coulomb), no damping and no
 #   gravity this is the paper's scene with every density S^2 times larger
-#   (mass scaling), as H3 and H4 run at 10x. S must divide 8000.
+#   (mass scaling), as H3 and H4 run at 10x. S must divide the variant's
+#   exchanges per 0.25 s: 16800 (mixed), 8000 (all-PD, all-DEM, --coarse).
 #   PD runs with OMP_NUM_THREADS threads (default 2: the pack's bodies are
 #   shared out body by body).
 #   Extra options go to every `coupler run`, e.g. a short rate measurement:
@@ -41,8 +42,8 @@ while [ $# -gt 0 ]; do
     --coarse) coarse=1; shift ;;
     --time-scale)
       scale=${2:-}
-      if ! [[ "$scale" =~ ^[1-9][0-9]*$ ]] || [ $((8000 % scale)) != 0 ]; then
-        echo "h5_table.sh: --time-scale needs a whole number that divides 8000 (got '$scale')" >&2
+      if ! [[ "$scale" =~ ^[1-9][0-9]*$ ]]; then
+        echo "h5_table.sh: --time-scale needs a whole number (got '$scale')" >&2
         exit 2
       fi
       shift 2 ;;
@@ -60,14 +61,23 @@ for v in ${variants//,/ }; do
   esac
   out=$work/$v
   sets=()
+  # Exchanges (coarse steps) per 0.25 s: the mixed pack runs both solvers at
+  # 0.25 / 16800 s, the others at a coarse step of 3.125e-5 s.
+  quarter=$([ $v = mixed ] && echo 16800 || echo 8000)
   if [ $coarse = 1 ] && [ $v != all-dem ]; then
     nb=$([ $v = mixed ] && echo 8 || echo 16)
     for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done
-    # dt_PD 0.227 of the coarse critical step (3.45e-5 s), as the scene's; snapshots stay at 0.25 s
-    sets+=(--set schedule.dt=7.8125e-6 --set schedule.ratio=4)
+    # The staggered update at 0.227 of the coarse critical step (3.45e-5 s), as the runs before session 21
+    quarter=8000
+    sets+=(--set schedule.dt=7.8125e-6 --set schedule.ratio=4 --set solvers.pack.params.integrator=staggered
+           --set solvers.pack.params.output.every=$quarter --set solvers.dem.params.snapshots.every=$quarter)
+  fi
+  if [ $((quarter % scale)) != 0 ]; then
+    echo "h5_table.sh: --time-scale $scale does not divide the $v run's $quarter exchanges per 0.25 s" >&2
+    exit 2
   fi
   if [ "$scale" != 1 ]; then
-    every=$((8000 / scale))
+    every=$((quarter / scale))
     speed=$(awk -v s="$scale" 'BEGIN { printf "%.10g", 0.1 * s }')
     sets+=(--set "solvers.dem.params.walls[0].velocity=[0, 0, $speed]"
            --set "solvers.dem.params.walls[1].velocity=[0, 0, -$speed]"
