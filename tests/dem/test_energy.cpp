@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 
 #include "dem_test_util.hpp"
 
@@ -60,6 +61,21 @@ TEST(DemEnergy, ElasticGasInWallBoxConservesEnergy) {
   EXPECT_GT(s.neighbors.builds, 10u);  // the gas really moved through the list
 }
 
+// One sphere of radius 1 cm, driven (its state set from outside), at height z
+// above a floor wall, with the given contact law and material; initialised.
+std::size_t drivenSphereOnFloor(DemSystem& s, const std::string& tangential, const Material& m, double z) {
+  s.setContactLaw("linear", tangential, "none");
+  s.materials.add(m);
+  const std::size_t i = s.particles.add({0.0, 0.0, z}, 0.01, 2500.0);
+  s.particles.driven[i] = 1;
+  PlaneWall floor;
+  floor.normal = {0.0, 0.0, 1.0};
+  s.planes.push_back(floor);
+  s.neighbors.skin = 0.002;
+  s.initialize();
+  return i;
+}
+
 // A driven particle (a hybrid PD particle) whose position is set from outside
 // before every step, pressed into a fixed wall by a linear spring: the work of
 // its prescribed motion must equal the elastic energy it stores. The jumps are
@@ -69,15 +85,7 @@ TEST(DemEnergy, ElasticGasInWallBoxConservesEnergy) {
 // balance 0.73 J off, against at most 0.11 J stored.
 TEST(DemEnergy, WorkOfADrivenParticleSetFromOutsideBalancesItsContactEnergy) {
   DemSystem s;
-  s.setContactLaw("linear", "none", "none");
-  s.materials.add(glass());
-  const std::size_t i = s.particles.add({0.0, 0.0, 0.009}, 0.01, 2500.0);
-  s.particles.driven[i] = 1;
-  PlaneWall floor;
-  floor.normal = {0.0, 0.0, 1.0};
-  s.planes.push_back(floor);
-  s.neighbors.skin = 0.002;
-  s.initialize();
+  const std::size_t i = drivenSphereOnFloor(s, "none", glass(), 0.009);
   const double b0 = energies(s).balance();
   double stored = 0.0;
   for (int k = 1; k <= 250; ++k) {
@@ -101,16 +109,8 @@ TEST(DemEnergy, WorkOfADrivenParticleSetFromOutsideBalancesItsContactEnergy) {
 TEST(DemEnergy, TangentialJumpsOfADrivenParticleGoIntoItsFrictionSpring) {
   for (const double friction : {100.0, 0.05}) {  // sticking, then sliding
     DemSystem s;
-    s.setContactLaw("linear", "linear", "none");
-    s.materials.add(glass(1.0, friction));
     const double z = 0.0095, amplitude = 2e-4, dt = 1e-5, omega = 0.05 / dt;
-    const std::size_t i = s.particles.add({0.0, 0.0, z}, 0.01, 2500.0);
-    s.particles.driven[i] = 1;
-    PlaneWall floor;
-    floor.normal = {0.0, 0.0, 1.0};
-    s.planes.push_back(floor);
-    s.neighbors.skin = 0.002;
-    s.initialize();
+    const std::size_t i = drivenSphereOnFloor(s, "linear", glass(1.0, friction), z);
     const double b0 = energies(s).balance();
     double stored = 0.0;
     for (int k = 1; k <= 250; ++k) {

@@ -154,9 +154,7 @@ class CouplerRun final : public ExchangeDriver {
     std::set<std::string> advanced;
     std::vector<RoundTrip> round;
     for (std::size_t i = 0; i < replies.size(); ++i) {
-      auto adv = replies[i].message.envelope().getBody().getAdvanced();
-      round.push_back({sentAt[i], replies[i].receivedAt, adv.getComputeSeconds(), adv.getComputeStartedAt()});
-      takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt);
+      round.push_back(takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt));
       advanced.insert(pending[i].first);
     }
     report_.communicationS += roundCommunicationSeconds(round);
@@ -438,11 +436,13 @@ class CouplerRun final : public ExchangeDriver {
     }
   }
 
-  void takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt, double dt) {
+  /// Takes a solver's reply in; returns its part in the round's timing.
+  RoundTrip takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt, double dt) {
     auto adv = reply.message.envelope().getBody().getAdvanced();
+    const RoundTrip trip{sentAt, reply.receivedAt, adv.getComputeSeconds(), adv.getComputeStartedAt()};
     auto& t = timings_[name];
-    t.computeS += adv.getComputeSeconds();
-    t.communicationS += std::max(0.0, reply.receivedAt - sentAt - adv.getComputeSeconds());
+    t.computeS += trip.computeS;
+    t.communicationS += std::max(0.0, trip.receivedAt - trip.sentAt - trip.computeS);
     if (recordsThisExchange()) noteCriticalStep(name, adv.getCriticalDt(), dt);
     if (const auto bad = nonFiniteEnergy(name, adv.getEnergies()))
       throw wire::PeerFault(name, *bad + " at exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) +
@@ -456,6 +456,7 @@ class CouplerRun final : public ExchangeDriver {
     latest_.insert_or_assign(name, std::move(reply.message));
     if (fresh) keepViews(name);
     else outputs_[name] = outputsOf(latest_.at(name));
+    return trip;
   }
 
   /// "solver 'x' reported strain = nan" for the first non-finite energy of a reply.

@@ -309,16 +309,21 @@ void DemSolver::averageWallContacts(std::uint32_t steps) {
 
 void DemSolver::checkFinite() const {
   const Particles& p = system_.particles;
-  const Vec3& g = system_.gravity;
-  std::ostringstream gravity;
-  if (norm2(g) > 0.0) gravity << ", or params.gravity [" << g.x << ", " << g.y << ", " << g.z << "] m/s^2 too large";
+  // Called after every advance: the message is built only for a failure.
+  auto causes = [this] {
+    const Vec3& g = system_.gravity;
+    std::ostringstream s;
+    s << "dt too large, contact law unstable";
+    if (norm2(g) > 0.0) s << ", or params.gravity [" << g.x << ", " << g.y << ", " << g.z << "] m/s^2 too large";
+    return s.str();
+  };
   for (std::size_t i = 0; i < p.size(); ++i)
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(p.x[i][d]) || !std::isfinite(p.v[i][d]))
         throw SolverError(Code::SOLVER_FAILURE, "step " + std::to_string(system_.step) + ": particle " +
                                                     std::to_string(p.id[i]) + " has a non-finite " +
-                                                    (std::isfinite(p.x[i][d]) ? "velocity" : "position") +
-                                                    " (dt too large, contact law unstable" + gravity.str() + ")");
+                                                    (std::isfinite(p.x[i][d]) ? "velocity" : "position") + " (" +
+                                                    causes() + ")");
 }
 
 /// A servo whose loop gain G dt k passes 1 overshoots its target every step
