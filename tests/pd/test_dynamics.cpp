@@ -163,13 +163,25 @@ TEST(PdDynamicsStaggered, WithoutCouplingItIsLeapfrogAndCouplingImpulseIsExact) 
 }
 
 #ifdef _OPENMP
-/// Two runs' displacements are bitwise equal, and the particles moved.
-void expectSameBitsAfterMotion(const std::vector<double>& a, const std::vector<double>& b, const std::string& label) {
-  ASSERT_EQ(a.size(), b.size()) << label;
-  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0) << label;
+/// A run's displacements and strain energy at its end.
+struct RunEnd {
+  std::vector<double> displacement;
+  double strain = 0.0;
+};
+
+RunEnd endOf(const PdSystem& sys) { return {sys.particles().displacement, sys.energies().strain}; }
+
+/// Two runs' displacements and strain energies are bitwise equal, and the
+/// particles moved.
+void expectSameBitsAfterMotion(const RunEnd& a, const RunEnd& b, const std::string& label) {
+  ASSERT_EQ(a.displacement.size(), b.displacement.size()) << label;
+  EXPECT_EQ(std::memcmp(a.displacement.data(), b.displacement.data(), a.displacement.size() * sizeof(double)), 0)
+      << label;
+  EXPECT_EQ(std::memcmp(&a.strain, &b.strain, sizeof(double)), 0) << label << ": " << a.strain << " vs " << b.strain;
   double moved = 0.0;
-  for (const double u : a) moved = std::max(moved, std::abs(u));
+  for (const double u : a.displacement) moved = std::max(moved, std::abs(u));
   EXPECT_GT(moved, 0.0) << label;
+  EXPECT_GT(a.strain, 0.0) << label;
 }
 
 TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
@@ -177,7 +189,8 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
   // loops run in parallel, row by row; every particle sums its own row, so
   // the result is bitwise equal. With 1 thread, LPS without surface
   // correction visits each pair once instead (its pairwise loops), which
-  // must give the same bits as the row loops.
+  // must give the same bits as the row loops, and so must the strain energy
+  // it sums from the pair loops' extensions.
   auto run = [](int threads, const char* model, bool corrected) {
     omp_set_num_threads(threads);
     PdSystem sys;
@@ -188,7 +201,7 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
     sys.finalise();
     randomVelocities(sys.particles(), 1.0);
     for (int s = 0; s < 5; ++s) sys.step(0.5 * sys.criticalTimeStep());
-    return sys.particles().displacement;
+    return endOf(sys);
   };
   const int saved = omp_get_max_threads();
   for (const char* model : {"pmb", "lps"})
@@ -200,8 +213,9 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
 
 TEST(PdDynamicsThreads, ManySmallBodiesShareThreadsBodyByBody) {
   // Six 7^3 bodies (below the per-body OpenMP threshold): with 2 threads the
-  // system hands whole bodies to threads; the result must be bitwise the
-  // serial one, for both models and both integrators.
+  // system hands whole bodies to threads, for the forces and the strain
+  // energies; the result must be bitwise the serial one, for both models and
+  // both integrators.
   auto run = [](int threads, const char* model, bool staggered) {
     omp_set_num_threads(threads);
     PdSystem sys;
@@ -219,7 +233,7 @@ TEST(PdDynamicsThreads, ManySmallBodiesShareThreadsBodyByBody) {
       if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
       else sys.step(0.5 * sys.criticalTimeStep());
     }
-    return sys.particles().displacement;
+    return endOf(sys);
   };
   const int saved = omp_get_max_threads();
   for (const char* model : {"pmb", "lps"})

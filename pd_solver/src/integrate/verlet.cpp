@@ -70,19 +70,23 @@ void PdSystem::computeExternal() {
   }
 }
 
-void PdSystem::computeInternal() {
+bool PdSystem::sharesBodiesOut() const {
   // Many bodies of similar size (a pack of PD spheres): one body per thread.
   // A body of a few thousand particles is too small to share its own bond
   // loops out, and its regions' barriers would cost more than they save.
-  // Bodies are independent, so the forces do not change with the split.
+  // Bodies are independent, so the results do not change with the split.
   int threads = 1;
 #ifdef _OPENMP
   threads = omp_get_max_threads();
 #endif
   std::size_t largest = 0;
   for (const auto& body : bodies_) largest = std::max(largest, body.end - body.begin);
-  const bool perBody = threads > 1 && bodies_.size() >= 2 * static_cast<std::size_t>(threads) &&
-                       largest * bodies_.size() <= 2 * particles_.size();
+  return threads > 1 && bodies_.size() >= 2 * static_cast<std::size_t>(threads) &&
+         largest * bodies_.size() <= 2 * particles_.size();
+}
+
+void PdSystem::computeInternal() {
+  const bool perBody = sharesBodiesOut();
   const long nb = static_cast<long>(bodies_.size());
 #pragma omp parallel for schedule(dynamic, 1) if (perBody)
   for (long b = 0; b < nb; ++b) {
@@ -207,7 +211,17 @@ Energies PdSystem::energies() const {
   for (std::size_t i = 0; i < particles_.size(); ++i)
     e.kinetic += 0.5 * particles_.mass[i] *
                  (v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
-  for (std::size_t b = 0; b < bodies_.size(); ++b) e.strain += bodies_[b].model->strainEnergy(context(b));
+  // Strain energies body by body like the forces, summed in body order so the
+  // total does not depend on the thread count.
+  std::vector<double> strain(bodies_.size(), 0.0);
+  const bool perBody = sharesBodiesOut();
+  const long nb = static_cast<long>(bodies_.size());
+#pragma omp parallel for schedule(dynamic, 1) if (perBody)
+  for (long b = 0; b < nb; ++b) {
+    const auto q = static_cast<std::size_t>(b);
+    strain[q] = bodies_[q].model->strainEnergy(context(q));
+  }
+  for (const double s : strain) e.strain += s;
   e.externalWork = work_;
   return e;
 }

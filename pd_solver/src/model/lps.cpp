@@ -90,24 +90,11 @@ class Lps final : public PdModel {
   }
 
   std::vector<double> energyDensity(const BodyContext& body) const override {
-    // The energy is asked for after every advance, usually at the state the
-    // last force evaluation saw (Verlet ends with one): reuse its extensions.
+    // The energy is asked for after advances, usually at the state the last
+    // force evaluation saw (Verlet ends with one): reuse its extensions, from
+    // the row loops or the pair loops, whichever ran.
     if (!extensionsAreCurrent(body)) updateExtensions(body);
-    const auto& b = body.bonds;
-    const auto& p = body.particles;
-    std::vector<double> out(body.end - body.begin, 0.0);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      if (!(m_[i] > 0.0)) continue;
-      const double alpha = 15.0 * G_ / m_[i];
-      double dev = 0.0;
-      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
-        if (b.broken[k]) continue;
-        const double ed = e_[k] - theta_[i] * b.length[k] / 3.0;  // Eq. 22
-        dev += deviatoricFactor_[k] * weight_[k] * ed * ed * p.volume[b.neighbor[k]];
-      }
-      out[i] = 0.5 * K_ * theta_[i] * theta_[i] + 0.5 * alpha * dev;  // Eq. 24
-    }
-    return out;
+    return extensionsInPairs_ ? pairEnergyDensity(body) : rowEnergyDensity(body);
   }
 
   double strainEnergy(const BodyContext& body) const override {
@@ -128,6 +115,31 @@ class Lps final : public PdModel {
   }
 
  private:
+  /// Energy density W = K theta^2 / 2 + alpha / 2 sum h w (e^d)^2 V_J (Eq. 24
+  /// with Eq. 22) from the row loops' e_ and theta_.
+  std::vector<double> rowEnergyDensity(const BodyContext& body) const {
+    const auto& b = body.bonds;
+    const auto& p = body.particles;
+    std::vector<double> out(body.end - body.begin, 0.0);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      double dev = 0.0;
+      for (std::size_t k = b.offset[i]; k < b.offset[i + 1]; ++k) {
+        if (b.broken[k]) continue;
+        const double ed = e_[k] - theta_[i] * b.length[k] / 3.0;  // Eq. 22
+        dev += deviatoricFactor_[k] * weight_[k] * ed * ed * p.volume[b.neighbor[k]];
+      }
+      out[i] = particleEnergyDensity(i, dev);
+    }
+    return out;
+  }
+
+  /// Eq. 24 for one particle from its deviatoric sum sum h w (e^d)^2 V_J.
+  double particleEnergyDensity(std::size_t il, double dev) const {
+    if (!(m_[il] > 0.0)) return 0.0;
+    const double alpha = 15.0 * G_ / m_[il];
+    return 0.5 * K_ * theta_[il] * theta_[il] + 0.5 * alpha * dev;
+  }
+
   // Bond index of j -> i for every bond i -> j (rows are sorted by partner).
   void buildReverse(const BodyContext& body) {
     const auto& b = body.bonds;
@@ -151,7 +163,6 @@ class Lps final : public PdModel {
   // of a pair cancel to round-off and momentum is conserved.
   void updateExtensions(const BodyContext& body) const {
     const auto& b = body.bonds;
-    const auto& p = body.particles;
     currentPositions(body, x_);
     const double* x = x_.data();
     const std::uint32_t* nb = b.neighbor.data();
@@ -173,8 +184,15 @@ class Lps final : public PdModel {
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
     }
-    const auto firstU = p.displacement.begin() + static_cast<long>(3 * body.begin);
-    uOfExtensions_.assign(firstU, firstU + 3 * n);
+    rememberExtensions(body, false);
+  }
+
+  /// Records the displacements e and theta now belong to, and whether e is
+  /// per bond (e_, row loops) or per pair (pairExtension_, pair loops).
+  void rememberExtensions(const BodyContext& body, bool inPairs) const {
+    const auto firstU = body.particles.displacement.begin() + static_cast<long>(3 * body.begin);
+    uOfExtensions_.assign(firstU, firstU + static_cast<long>(3 * (body.end - body.begin)));
+    extensionsInPairs_ = inPairs;
   }
 
   /// True when the body's displacements are bitwise those of the last
@@ -285,8 +303,8 @@ class Lps final : public PdModel {
 
   void pairForces(const BodyContext& body, std::vector<double>& force) {
     currentPositions(body, x_);
-    uOfExtensions_.clear();  // e_ is not filled here: energyDensity recomputes it
     pairExtensions(body);
+    rememberExtensions(body, true);
     particleCoefficients(static_cast<long>(body.end - body.begin));
     pairBondForces(body, force);
   }
@@ -312,6 +330,28 @@ class Lps final : public PdModel {
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
     }
+  }
+
+  // Eq. 24 from the pair loops' e and theta. Every particle sums its
+  // deviatoric terms w (e^d)^2 V_J in its row's order, as pairExtensions
+  // sums theta, so the densities are bitwise rowEnergyDensity's.
+  std::vector<double> pairEnergyDensity(const BodyContext& body) const {
+    const std::size_t n = body.end - body.begin;
+    const double* V = body.particles.volume.data() + body.begin;
+    std::vector<double> dev(n, 0.0);
+    for (std::size_t il = 0; il < n; ++il) {
+      const double Vi = V[il];
+      double d = dev[il];
+      for (std::size_t q = pairOffset_[il]; q < pairOffset_[il + 1]; ++q) {
+        const std::size_t jl = pairPartner_[q];
+        const double L = pairLength_[q], w = pairWeight_[q], ek = pairExtension_[q];
+        const double edi = ek - theta_[il] * L / 3.0, edj = ek - theta_[jl] * L / 3.0;  // Eq. 22
+        d += w * edi * edi * V[jl];
+        dev[jl] += w * edj * edj * Vi;
+      }
+      dev[il] = particleEnergyDensity(il, d);
+    }
+    return dev;
   }
 
   // s = (t_IJ + t_JI) w beta V_J / |Y| per direction, f_I = V_I sum s Y (Eq. 14).
@@ -458,7 +498,8 @@ class Lps final : public PdModel {
   std::vector<double> weight_, dilatationFactor_, deviatoricFactor_, m_, t_;
   std::vector<double> thetaCoef_, weightVolume_;  // per bond: h w |xi| V_J and w beta V_J
   mutable std::vector<double> theta_, e_, x_;  // scratch of the current configuration
-  mutable std::vector<double> uOfExtensions_;  // the body's displacements e_ and theta_ belong to
+  mutable std::vector<double> uOfExtensions_;  // the body's displacements e and theta_ belong to
+  mutable bool extensionsInPairs_ = false;     // e is in pairExtension_ (pair loops), else in e_
   std::vector<std::size_t> reverse_;
   // Pair lists of the pairwise loops: pairs of row i in [pairOffset_[i], pairOffset_[i + 1]).
   std::vector<std::size_t> pairOffset_;

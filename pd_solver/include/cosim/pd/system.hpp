@@ -146,6 +146,8 @@ class PdSystem {
   std::vector<std::uint32_t> resolve(const Selection& where, EntryError::Entry entry, std::size_t index) const;
   void computeExternal();
   void computeInternal();
+  /// Whether bond loops run body by body on threads (many similar bodies).
+  bool sharesBodiesOut() const;
   void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;
   void applyConstraints();
   void kick(double dt);
