@@ -3,6 +3,11 @@
 using Cxx = import "/capnp/c++.capnp";
 $Cxx.namespace("cosim::proto");
 
+# The set of hybrid particles is fixed at the first message. Later messages may
+# leave ids, bodyIds, referencePositions, radii and horizons empty: positions
+# and velocities are then those of the first message's particles, in its
+# order (PD sends the set with its setup outputs only; the coupler sends it to
+# DEM until DEM's outputs carry HybridForces, which shows DEM holds it).
 struct HybridParticles {
   ids @0 :List(UInt32);
   bodyIds @1 :List(UInt32);
@@ -14,6 +19,8 @@ struct HybridParticles {
   wantStiffness @7 :Bool;               # set by the coupler: return HybridForces.positions and .stiffness
 }
 
+# Forces of the loaded particles only: a particle not listed has no contact
+# force (and no stiffness) over the interval.
 struct HybridForces {
   ids @0 :List(UInt32);
   forces @1 :List(Float64);             # 3 per particle, total contact force on it

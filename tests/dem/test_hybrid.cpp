@@ -53,17 +53,20 @@ struct Hybrids {
   std::vector<std::uint32_t> ids{10, 11, 12, 13, 14};
   std::vector<double> x{0, 0, 0, 0.012, 0, 0, 0.1, 0, 0, 0.3, 0, 0.5, 0.1, 0, 0.019};
   std::vector<double> v{0, 0, 0, 0, 0, 0, 0, 0, -1e-3, 0, 0, 0, 0, 0, 0};
-  void write(proto::CouplingData::Builder data) const {
+  /// With the set (ids, bodies, reference positions, radii, horizons) or,
+  /// as PD sends after setup, states alone in the set's order.
+  void write(proto::CouplingData::Builder data, bool withSet = true) const {
     auto h = data.initHybridParticles(1)[0];
     const auto n = static_cast<unsigned>(ids.size());
+    std::copy(x.begin(), x.end(), wire::view(h.initPositions(3 * n)).begin());
+    std::copy(v.begin(), v.end(), wire::view(h.initVelocities(3 * n)).begin());
+    h.setWantStiffness(wantStiffness);
+    if (!withSet) return;
     std::copy(ids.begin(), ids.end(), wire::view(h.initIds(n)).begin());
     wire::view(h.initBodyIds(n));
     std::copy(x.begin(), x.end(), wire::view(h.initReferencePositions(3 * n)).begin());
-    std::copy(x.begin(), x.end(), wire::view(h.initPositions(3 * n)).begin());
-    std::copy(v.begin(), v.end(), wire::view(h.initVelocities(3 * n)).begin());
     for (double& r : wire::view(h.initRadii(n))) r = 0.01;
     wire::view(h.initHorizons(1))[0] = 0.015;
-    h.setWantStiffness(wantStiffness);
   }
   bool wantStiffness = false;
 };
@@ -86,10 +89,17 @@ struct DemRun {
   }
 };
 
-Vec3 forceOf(proto::HybridForces::Reader f, std::size_t k) {
+/// Force on the particle with PD id `id`; DEM lists loaded particles only.
+Vec3 forceOn(proto::HybridForces::Reader f, std::uint32_t id) {
+  const auto ids = wire::view(f.getIds());
   const auto v = wire::view(f.getForces());
-  return {v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+  for (std::size_t q = 0; q < ids.size(); ++q)
+    if (ids[q] == id) return {v[3 * q], v[3 * q + 1], v[3 * q + 2]};
+  return {0.0, 0.0, 0.0};
 }
+
+/// Force on Hybrids' particle k (id 10 + k).
+Vec3 forceOf(proto::HybridForces::Reader f, std::uint32_t k) { return forceOn(f, 10 + k); }
 
 TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
   const Hybrids h;
@@ -98,8 +108,10 @@ TEST(HybridSpheresInDem, ReturnsContactAndWallForcesAveragedOverTheInterval) {
   DemRun run(h);
   ASSERT_EQ(run.solver.hybrids().size(), 5u);
   const auto f = run.advance(steps, dt);
-  ASSERT_EQ(f.getIds().size(), 5u);
-  EXPECT_EQ(f.getIds()[2], 12u);
+  // D touches nothing and is not listed; the others in the set's order.
+  const std::vector<std::uint32_t> loaded{10, 11, 12, 14};
+  const auto ids = wire::view(f.getIds());
+  EXPECT_EQ(std::vector<std::uint32_t>(ids.begin(), ids.end()), loaded);
   EXPECT_EQ(f.getStiffness().size(), 0u);  // not asked for
   EXPECT_EQ(f.getPositions().size(), 0u);
 
@@ -196,6 +208,46 @@ TEST(HybridSpheresInDem, BadMessagesAreRefused) {
   nan.x[0] = std::nan("");
   nan.write(run.inputs);
   EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
+  // States alone must match the set's size.
+  fewer.write(run.inputs, false);
+  EXPECT_THROW(run.advance(1, 1e-5), wire::SolverError);
+  // A first message without the set leaves DEM nothing to drive.
+  DemSolver solver;
+  capnp::MallocMessageBuilder in, out;
+  auto inputs = in.initRoot<proto::CouplingData>();
+  solver.setup({"scene.yaml", kScene, "particles", "", inputs.asReader()}, out.initRoot<proto::CouplingData>());
+  h.write(inputs, false);
+  wire::AdvanceRequest r;
+  r.steps = 1;
+  r.dt = 1e-5;
+  r.inputs = inputs.asReader();
+  try {
+    solver.advance(r, out.initRoot<proto::CouplingData>());
+    FAIL() << "states without a set were accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("must carry the set"), std::string::npos) << e.what();
+  }
+}
+
+// After the first exchange PD sends states alone, in the set's order: DEM
+// must drive the same particles as with the full set (bitwise the same forces).
+TEST(HybridSpheresInDem, StatesWithoutTheSetDriveTheSetsParticles) {
+  const Hybrids h;
+  DemRun full(h), states(h);
+  for (std::uint32_t s = 0; s < 5; ++s) {
+    Hybrids moved = h;
+    for (std::size_t c = 0; c < moved.x.size(); ++c) moved.x[c] += 1e-5 * s * moved.v[c] + 1e-6 * s * (c % 3 == 0);
+    moved.write(full.inputs);
+    moved.write(states.inputs, false);
+    const auto a = full.advance(3, 1e-5), b = states.advance(3, 1e-5);
+    ASSERT_EQ(a.getIds().size(), b.getIds().size());
+    for (std::uint32_t k = 0; k < 5; ++k)
+      for (int d = 0; d < 3; ++d) EXPECT_EQ(forceOf(a, k)[d], forceOf(b, k)[d]) << "step " << s << " particle " << k;
+  }
+  const auto& pa = full.solver.system().particles;
+  const auto& pb = states.solver.system().particles;
+  for (std::size_t i = 0; i < pa.size(); ++i) EXPECT_EQ(pa.x[i].x, pb.x[i].x);
+  EXPECT_GT(norm(forceOf(full.advance(1, 1e-5), 0)), 0.0);
 }
 
 
@@ -253,7 +305,7 @@ TEST_P(HybridStiffness, PredictsTheForceChangeOfASmallMove) {
   const auto f0 = step(h);
   ASSERT_EQ(f0.getStiffness().size(), 6u);
   ASSERT_EQ(f0.getPositions().size(), 3u);
-  const Vec3 force0 = forceOf(f0, 0);
+  const Vec3 force0 = forceOn(f0, 7);
   ASSERT_GT(force0.z, 0.0);
   const auto k = wire::view(f0.getStiffness());
   const double kk[6] = {k[0], k[1], k[2], k[3], k[4], k[5]};
@@ -263,7 +315,7 @@ TEST_P(HybridStiffness, PredictsTheForceChangeOfASmallMove) {
   const Vec3 delta{2e-8, -1.5e-8, 3e-8};
   Hybrids moved = h;
   moved.v = {delta.x / dt, delta.y / dt, delta.z / dt};
-  const Vec3 change = forceOf(step(moved), 0) - force0;
+  const Vec3 change = forceOn(step(moved), 7) - force0;
   const Vec3 predicted{-(kk[0] * delta.x + kk[3] * delta.y + kk[4] * delta.z),
                        -(kk[3] * delta.x + kk[1] * delta.y + kk[5] * delta.z),
                        -(kk[4] * delta.x + kk[5] * delta.y + kk[2] * delta.z)};

@@ -111,6 +111,28 @@ TEST(PdSolverSetup, HybridParticlesAndCapabilities) {
   ASSERT_EQ(h.getHorizons().size(), 1u);
   EXPECT_NEAR(h.getHorizons()[0], 3e-3, 1e-15);
   EXPECT_GT(f.solver.criticalDt(), 0.0);
+  // After an advance: states alone, in the set's order (pddem.capnp).
+  const auto id = h.getIds()[5];
+  capnp::MallocMessageBuilder in, after;
+  auto d = in.initRoot<CouplingData>();
+  auto hf = d.initHybridForces(1)[0];
+  hf.initIds(1).set(0, id);
+  hf.initForces(3).set(2, 1.0);
+  cosim::wire::AdvanceRequest req;
+  req.steps = 1;
+  req.dt = 0.5 * f.solver.criticalDt();
+  req.inputs = d.asReader();
+  f.solver.advance(req, after.initRoot<CouplingData>());
+  const auto s = after.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+  EXPECT_EQ(s.getIds().size() + s.getBodyIds().size() + s.getReferencePositions().size() + s.getRadii().size() +
+                s.getHorizons().size(),
+            0u);
+  ASSERT_EQ(s.getPositions().size(), h.getPositions().size());
+  ASSERT_EQ(s.getVelocities().size(), h.getVelocities().size());
+  // The pushed particle is the set's sixth: it moved up.
+  EXPECT_GT(s.getVelocities()[3 * 5 + 2], 0.0);
+  EXPECT_GT(s.getPositions()[3 * 5 + 2], h.getPositions()[3 * 5 + 2]);
+  EXPECT_EQ(s.getPositions()[3 * 6 + 2], h.getPositions()[3 * 6 + 2]);
 }
 
 TEST(PdSolverSetup, BadInputNamesKeyAndLine) {

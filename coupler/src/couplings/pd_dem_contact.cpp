@@ -31,6 +31,11 @@
 //               evaluated and K = -df/dx summed over its contacts; PD applies
 //               f = F - K (x - x_F) at every sub-step (clamped so it never
 //               reverses), so the contact stiffness is integrated with PD's step.
+//
+// The hybrid set (ids, bodies, reference positions, radii, horizons) is fixed:
+// PD sends it with its setup outputs, states alone after that (pddem.capnp),
+// and this coupling keeps it and sends it to DEM until a reply of DEM's
+// carries hybrid forces (then DEM holds it): the states are half the bytes.
 #include <ostream>
 #include <stdexcept>
 
@@ -71,10 +76,21 @@ class PdDemContact final : public Coupling {
         << (held_ ? "held" : "extrapolated") << ", contact forces " << (linearised_ ? "linearised" : "held");
   }
 
+  void setupReference(const std::map<std::string, proto::CouplingData::Reader>& outputs) override {
+    demHoldsSet_ = false;  // a DEM process just set up (a start or a resume) holds no set
+    const auto pd = outputs.find(pd_);
+    if (pd == outputs.end() || !pd->second.hasHybridParticles()) return;
+    for (auto h : pd->second.getHybridParticles())
+      if (h.getIds().size() > 0) set_.remember(h);
+  }
+
   void exchange(ExchangeContext& ctx) override {
     const auto pd = ctx.outputs.find(pd_);
     const auto dem = ctx.outputs.find(dem_);
     if (pd == ctx.outputs.end() || dem == ctx.outputs.end()) return;
+    // DEM returns hybrid forces once it holds the set; a reply that a resume
+    // replays comes from the process before it.
+    if (!ctx.replay && dem->second.hasHybridForces()) demHoldsSet_ = true;
     stageParticles(pd->second, ctx);
     stageForces(dem->second, ctx);
   }
@@ -85,15 +101,42 @@ class PdDemContact final : public Coupling {
       throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent no hybrid particles at exchange " +
                                std::to_string(ctx.exchange) + " (is params.hybrid false?)");
     for (auto h : pd.getHybridParticles()) {
-      std::span<const double> velocities = wire::view(h.getVelocities());
+      const bool carriesSet = h.getIds().size() > 0;
+      if (carriesSet && set_.ids.empty()) set_.remember(h);
+      if (set_.ids.empty())
+        throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent hybrid particle states at exchange " +
+                                 std::to_string(ctx.exchange) +
+                                 " without their set (ids, body ids, reference positions, radii, horizons), and "
+                                 "its setup outputs carried none");
+      InputAssembler::StagedHybridParticles staged;
+      staged.positions = wire::view(h.getPositions());
+      staged.velocities = wire::view(h.getVelocities());
+      staged.wantStiffness = linearised_;
+      const std::size_t n = carriesSet ? h.getIds().size() : set_.ids.size();
+      if (staged.positions.size() != 3 * n || staged.velocities.size() != 3 * n)
+        throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent " +
+                                 std::to_string(staged.positions.size()) + " position and " +
+                                 std::to_string(staged.velocities.size()) + " velocity values for " +
+                                 std::to_string(n) + " hybrid particles (need 3 per particle)");
       if (held_) {
-        zeros_.assign(velocities.size(), 0.0);
-        velocities = zeros_;
+        zeros_.assign(staged.velocities.size(), 0.0);
+        staged.velocities = zeros_;
       }
-      ctx.inputs[dem_].stageHybridParticles(
-          {wire::view(h.getIds()), wire::view(h.getBodyIds()), wire::view(h.getReferencePositions()),
-           wire::view(h.getPositions()), velocities, wire::view(h.getRadii()), wire::view(h.getHorizons()),
-           linearised_});
+      // Ids a message carries name its order; without them it is the set's.
+      if (carriesSet) staged.ids = wire::view(h.getIds());
+      if (!demHoldsSet_ && carriesSet) {
+        staged.bodyIds = wire::view(h.getBodyIds());
+        staged.referencePositions = wire::view(h.getReferencePositions());
+        staged.radii = wire::view(h.getRadii());
+        staged.horizons = wire::view(h.getHorizons());
+      } else if (!demHoldsSet_) {
+        staged.ids = set_.ids;
+        staged.bodyIds = set_.bodyIds;
+        staged.referencePositions = set_.referencePositions;
+        staged.radii = set_.radii;
+        staged.horizons = set_.horizons;
+      }
+      ctx.inputs[dem_].stageHybridParticles(staged);
     }
   }
 
@@ -132,7 +175,26 @@ class PdDemContact final : public Coupling {
     ctx.series->append(name() + "/loaded_particles", loaded);
   }
 
+  /// PD's hybrid set, kept from the first message that carried it.
+  struct HybridSet {
+    std::vector<std::uint32_t> ids, bodyIds;
+    std::vector<double> referencePositions, radii, horizons;
+    void remember(proto::HybridParticles::Reader h) {
+      auto copy = [](auto& to, auto list) {
+        const auto v = wire::view(list);
+        to.assign(v.begin(), v.end());
+      };
+      copy(ids, h.getIds());
+      copy(bodyIds, h.getBodyIds());
+      copy(referencePositions, h.getReferencePositions());
+      copy(radii, h.getRadii());
+      copy(horizons, h.getHorizons());
+    }
+  };
+
   std::string pd_, dem_;
+  HybridSet set_;
+  bool demHoldsSet_ = false;
   bool held_ = false;
   bool linearised_ = false;
   std::vector<double> zeros_;  // velocities staged with held kinematics

@@ -513,7 +513,7 @@ class CouplerRun final : public ExchangeDriver {
     ScopedTimer t(report_.mappingS);
     for (auto& [name, inputs] : inputs_) inputs.clear();  // staged views may point into replaced replies
     ExchangeContext ctx{exchange_, time_, outputs_, inputs_,
-                        recordsThisExchange() && !replay ? &*series_ : nullptr, &energies_, advanced};
+                        recordsThisExchange() && !replay ? &*series_ : nullptr, &energies_, advanced, replay};
     for (const auto& c : scene_.couplings) c->exchange(ctx);
   }
 

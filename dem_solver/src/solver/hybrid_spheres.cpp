@@ -66,28 +66,38 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> familyPairs(const std::vect
 
 bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material) {
   const auto ids = wire::view(message.getIds());
-  const auto x = wire::view(message.getPositions());
-  const auto v = wire::view(message.getVelocities());
-  if (x.size() != 3 * ids.size() || v.size() != 3 * ids.size())
-    throw std::invalid_argument("hybrid particles: positions and velocities must hold 3 values per id (" +
-                                std::to_string(ids.size()) + " ids, " + std::to_string(x.size()) + " and " +
-                                std::to_string(v.size()) + " values)");
   const bool first = ids_.empty();
+  if (first && ids.empty())
+    throw std::invalid_argument("hybrid particles: the first message must carry the set (ids, body ids, reference "
+                                "positions, radii, horizons); this one holds only positions and velocities");
   if (first) add(message, system, material);
   wantStiffness_ = message.getWantStiffness();
-  if (ids.size() != ids_.size())
-    throw std::invalid_argument("hybrid particles: " + std::to_string(ids.size()) + " sent, but the set had " +
+  // Without ids the states are the set's, in its order (pddem.capnp).
+  const std::size_t n = ids.empty() ? ids_.size() : ids.size();
+  if (n != ids_.size())
+    throw std::invalid_argument("hybrid particles: " + std::to_string(n) + " sent, but the set had " +
                                 std::to_string(ids_.size()) + " (the set is fixed at its first exchange)");
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    const auto it = slot_.find(ids[k]);
-    if (it == slot_.end())
-      throw std::invalid_argument("hybrid particles: id " + std::to_string(ids[k]) + " was not in the first set");
+  const auto x = wire::view(message.getPositions());
+  const auto v = wire::view(message.getVelocities());
+  if (x.size() != 3 * n || v.size() != 3 * n)
+    throw std::invalid_argument("hybrid particles: positions and velocities must hold 3 values per particle (" +
+                                std::to_string(n) + " particles, " + std::to_string(x.size()) + " and " +
+                                std::to_string(v.size()) + " values)");
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t slot = ids.empty() ? static_cast<std::uint32_t>(k) : slotOf(ids[k]);
     const Vec3 xk = at(x, k), vk = at(v, k);
     if (!finite(xk) || !finite(vk))
-      throw std::invalid_argument("hybrid particles: non-finite state of id " + std::to_string(ids[k]));
-    system.setDrivenState(index_[it->second], xk, vk);
+      throw std::invalid_argument("hybrid particles: non-finite state of id " + std::to_string(ids_[slot]));
+    system.setDrivenState(index_[slot], xk, vk);
   }
   return first;
+}
+
+std::uint32_t HybridSpheres::slotOf(std::uint32_t id) const {
+  const auto it = slot_.find(id);
+  if (it == slot_.end())
+    throw std::invalid_argument("hybrid particles: id " + std::to_string(id) + " was not in the first set");
+  return it->second;
 }
 
 void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material) {
@@ -163,23 +173,34 @@ void HybridSpheres::endInterval(std::uint32_t steps) {
 
 void HybridSpheres::fill(proto::HybridForces::Builder out, const DemSystem& system) const {
   const Particles& p = system.particles;
-  const auto n = static_cast<unsigned>(ids_.size());
+  // Loaded particles only (pddem.capnp): an unlisted one has no force, and PD
+  // clamps a linearised change about a zero force to zero, so nothing is lost.
+  auto& loaded = loaded_;
+  loaded.clear();
+  for (std::uint32_t k = 0; k < ids_.size(); ++k) {
+    const Vec3 fk = averaged_ ? mean_[k] : p.f[index_[k]];
+    if (fk.x != 0.0 || fk.y != 0.0 || fk.z != 0.0) loaded.push_back(k);
+  }
+  const auto n = static_cast<unsigned>(loaded.size());
   auto ids = wire::view(out.initIds(n));
   auto f = wire::view(out.initForces(3 * n));
-  for (unsigned k = 0; k < n; ++k) {
-    ids[k] = ids_[k];
+  for (unsigned q = 0; q < n; ++q) {
+    const std::uint32_t k = loaded[q];
+    ids[q] = ids_[k];
     const Vec3 fk = averaged_ ? mean_[k] : p.f[index_[k]];
-    for (int d = 0; d < 3; ++d) f[3 * k + static_cast<unsigned>(d)] = fk[d];
+    for (int d = 0; d < 3; ++d) f[3 * q + static_cast<unsigned>(d)] = fk[d];
   }
   if (!wantStiffness_) return;
   auto x = wire::view(out.initPositions(3 * n));
-  for (unsigned k = 0; k < n; ++k) {
+  for (unsigned q = 0; q < n; ++q) {
+    const std::uint32_t k = loaded[q];
     const Vec3 xk = averaged_ ? meanPosition_[k] : p.x[index_[k]];
-    for (int d = 0; d < 3; ++d) x[3 * k + static_cast<unsigned>(d)] = xk[d];
+    for (int d = 0; d < 3; ++d) x[3 * q + static_cast<unsigned>(d)] = xk[d];
   }
   const std::vector<double> k = stiffness(system);
   auto kOut = wire::view(out.initStiffness(6 * n));
-  std::copy(k.begin(), k.end(), kOut.begin());
+  for (unsigned q = 0; q < n; ++q)
+    std::copy_n(k.begin() + 6 * static_cast<long>(loaded[q]), 6, kOut.begin() + 6 * q);
 }
 
 namespace {

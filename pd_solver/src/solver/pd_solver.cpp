@@ -112,7 +112,7 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
   }
   ready_ = true;
   startEnergyBalance();
-  writeHybrid(outputs);
+  writeHybrid(outputs, true);
 }
 
 void PdSolver::startEnergyBalance() {
@@ -224,7 +224,7 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   checkFinite();
   ++advances_;
   if (snapshots_ && advances_ % config_.outputEvery == 0) snapshots_->write(system_);
-  writeHybrid(outputs);
+  writeHybrid(outputs, false);
 }
 
 void PdSolver::checkFinite() const {
@@ -237,31 +237,34 @@ void PdSolver::checkFinite() const {
                             std::to_string(system_.stepCount()));
 }
 
-void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out) const {
+void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const {
   if (!config_.hybrid) return;
   const auto& p = system_.particles();
   const auto n = static_cast<unsigned>(hybrid_.size());
-  auto list = out.initHybridParticles(1);
-  auto h = list[0];
+  auto h = out.initHybridParticles(1)[0];
+  auto pos = cosim::wire::view(h.initPositions(3 * n));
+  auto vel = cosim::wire::view(h.initVelocities(3 * n));
+  for (unsigned q = 0; q < n; ++q) {
+    const std::size_t i = hybrid_[q];
+    for (int a = 0; a < 3; ++a) {
+      pos[3 * q + a] = p.reference[3 * i + a] + p.displacement[3 * i + a];
+      vel[3 * q + a] = p.velocity[3 * i + a];
+    }
+  }
+  if (!withSet) return;
   auto ids = cosim::wire::view(h.initIds(n));
   auto bodies = cosim::wire::view(h.initBodyIds(n));
   auto ref = cosim::wire::view(h.initReferencePositions(3 * n));
-  auto pos = cosim::wire::view(h.initPositions(3 * n));
-  auto vel = cosim::wire::view(h.initVelocities(3 * n));
   auto rad = cosim::wire::view(h.initRadii(n));
-  auto hz = cosim::wire::view(h.initHorizons(static_cast<unsigned>(hybridHorizon_.size())));
   for (unsigned q = 0; q < n; ++q) {
     const std::size_t i = hybrid_[q];
     ids[q] = static_cast<std::uint32_t>(i);
     bodies[q] = p.body[i];
     rad[q] = quasiRadius(p.volume[i]);  // Hartmann Eq. 39
-    for (int a = 0; a < 3; ++a) {
-      ref[3 * q + a] = p.reference[3 * i + a];
-      pos[3 * q + a] = p.reference[3 * i + a] + p.displacement[3 * i + a];
-      vel[3 * q + a] = p.velocity[3 * i + a];
-    }
+    for (int a = 0; a < 3; ++a) ref[3 * q + a] = p.reference[3 * i + a];
   }
-  for (std::size_t b = 0; b < hybridHorizon_.size(); ++b) hz[b] = hybridHorizon_[b];
+  auto hz = cosim::wire::view(h.initHorizons(static_cast<unsigned>(hybridHorizon_.size())));
+  std::copy(hybridHorizon_.begin(), hybridHorizon_.end(), hz.begin());
 }
 
 void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::CouplingData::Builder out) {
@@ -284,7 +287,7 @@ void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::Coupl
   auto arrays = out.initArrays(count);
   unsigned k = 0;
   for (const auto& n : want) {
-    if (n == "hybrid") { writeHybrid(out); continue; }
+    if (n == "hybrid") { writeHybrid(out, true); continue; }
     if (n == "position") {
       std::vector<double> x(p.reference.size());
       for (std::size_t q = 0; q < x.size(); ++q) x[q] = p.reference[q] + p.displacement[q];

@@ -158,8 +158,10 @@ class HertzIndentation final : public Reference {
     const auto x = wire::view(h.getPositions());
     const auto x0 = wire::view(h.getReferencePositions());
     const auto r = wire::view(h.getRadii());
-    if (x0.size() != x.size())
-      throw std::runtime_error("analysis: solver '" + pd_ + "' sent hybrid particles without reference positions");
+    if (x0.size() != x.size() || r.size() != x.size() / 3)
+      throw std::runtime_error("analysis: solver '" + pd_ + "' sent hybrid particles without reference positions and "
+                               "radii at exchange " + std::to_string(o.exchange) +
+                               " (a PD solver sends them with its setup outputs, which this analysis reads)");
     // Half the edge of the cube of volume 4/3 pi R_h^3 (Hartmann Eq. 39 inverted).
     const double halfCell = 0.5 * std::cbrt(4.0 * std::numbers::pi / 3.0);
     originZ_[1] = originZ_[2] = -1e300;

@@ -37,7 +37,10 @@ class PdSolver final : public cosim::wire::Solver {
   /// stiffness sent with them (cleared first; empty when none was sent).
   void readHybridForces(cosim::proto::CouplingData::Reader data, std::vector<double>& into,
                         std::vector<PdSystem::LinearisedCoupling>* linearised) const;
-  void writeHybrid(cosim::proto::CouplingData::Builder out) const;
+  /// Hybrid surface particles' states; with the set (ids, bodies, reference
+  /// positions, radii, horizons) at setup and in fields, after an advance
+  /// only positions and velocities in the set's order (pddem.capnp).
+  void writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const;
   void checkFinite() const;
   /// Starts the energy balance from the current state (setup, restore).
   void startEnergyBalance();

@@ -115,6 +115,9 @@ struct ExchangeContext {
   /// Solvers whose outputs are new since the couplings last ran (all of them at setup; a
   /// staggered schedule advances some solvers per exchange).
   std::set<std::string> advanced = {};
+  /// The outputs are the replies a checkpoint kept, restaged when a run resumes
+  /// (they came from the solver processes before it).
+  bool replay = false;
   bool isNew(const std::string& solver) const { return advanced.count(solver) > 0; }
 };
 

@@ -57,9 +57,12 @@ class HybridSpheres {
 
  private:
   void add(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material);
+  /// Position in ids_ of a PD particle id (an id outside the set is bad input).
+  std::uint32_t slotOf(std::uint32_t id) const;
   std::vector<std::uint32_t> ids_;    // PD particle ids, as exported
   std::vector<std::uint32_t> index_;  // DEM particle index of each
   std::unordered_map<std::uint32_t, std::uint32_t> slot_;  // PD id -> position in ids_
+  mutable std::vector<std::uint32_t> loaded_;               // fill's scratch: slots with a force
   std::vector<Vec3> impulse_, mean_;
   std::vector<Vec3> positionSum_, meanPosition_;
   bool averaged_ = false;
