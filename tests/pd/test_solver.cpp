@@ -140,6 +140,8 @@ TEST(PdSolverSetup, BadInputNamesKeyAndLine) {
   EXPECT_NE(msg.find("scene.yaml:18: unknown key 'colour' in body"), std::string::npos) << msg;
   msg = setupError(scene("      speed: 3\n"));
   EXPECT_NE(msg.find("scene.yaml:18: unknown key 'speed' in params"), std::string::npos) << msg;
+  msg = setupError(scene("      critical_step: sideways\n"));
+  EXPECT_NE(msg.find("scene.yaml:18: 'critical_step' must be rule or measured"), std::string::npos) << msg;
   std::string s = scene();
   s.replace(s.find("spacing: 0.001"), 14, "spacing: -0.001");
   msg = setupError(s);
@@ -308,6 +310,18 @@ TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
   Fixture forced(scene("      force: true\n"));
   advance(forced.solver, 1, 1.5 * crit, 0, 0.0, 0.0, false);
   EXPECT_EQ(forced.solver.step(), 1u);
+  // critical_step: measured reports the bar's own limit (above the rule) and
+  // the refusal says how the step was found.
+  Fixture measured(scene("      critical_step: measured\n"));
+  const double limit = measured.solver.criticalDt();
+  EXPECT_GT(limit, crit);
+  advance(measured.solver, 1, limit, 0, 0.0, 0.0, false);
+  try {
+    advance(measured.solver, 1, 1.01 * limit, 0, 0.0, 0.0, false);
+    FAIL() << "dt above the measured critical step was accepted";
+  } catch (const cosim::wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("2 / omega_max, measured at setup"), std::string::npos) << e.what();
+  }
 }
 
 // The energy balance (K + U) - (K_0 + U_0) = W stops a run whose step is above

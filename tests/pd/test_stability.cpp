@@ -2,7 +2,8 @@
 // Eqs. 41-42; PdSystem::criticalTimeStep) against the true stability limit of
 // velocity Verlet on the body, dt = 2 / omega_max, with omega_max^2 the
 // largest eigenvalue of M^-1 K found by power iteration on the force of a
-// tiny displacement (the models are linear in it to round-off). The coupler
+// tiny displacement (PdSystem::verletLimit; the models are linear in it; the
+// last test shows Verlet blows up just above it). The coupler
 // refuses a dt above the reported step, so it must lie below the limit for
 // every model, Poisson ratio, horizon and influence function, and for bodies
 // whose surface particles have one-sided families (cube corners, a sphere's
@@ -10,11 +11,13 @@
 // the delta = 1-2 h cases here (5-84 % above the limit).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
 #include <string>
 
+#include "cosim/pd/scene.hpp"
 #include "pd_test_util.hpp"
 
 namespace cosim::pd {
@@ -28,37 +31,6 @@ struct StabilityCase {
   const char* influence = "constant";
   bool correction = false;
 };
-
-/// omega_max^2 of the body by power iteration, to a relative change below 1e-6.
-double largestEigenvalue(PdSystem& sys) {
-  auto& p = sys.particles();
-  const std::size_t n = p.size();
-  std::mt19937 rng(7);
-  std::normal_distribution<double> normal;
-  std::vector<double> v(3 * n);
-  for (auto& x : v) x = normal(rng);
-  const double eps = 1e-9 * sys.bodies()[0].spacing;  // displacements far below the spacing: linear response
-  double lambda = 0.0;
-  for (int it = 0; it < 3000; ++it) {
-    double norm = 0.0;
-    for (const double x : v) norm += x * x;
-    norm = std::sqrt(norm);
-    for (std::size_t k = 0; k < 3 * n; ++k) p.displacement[k] = eps * v[k] / norm;
-    sys.computeForces();
-    double rayleigh = 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-      for (int a = 0; a < 3; ++a) {
-        const std::size_t k = 3 * i + static_cast<std::size_t>(a);
-        const double w = -p.internalForce[k] / (eps * p.mass[i]);  // M^-1 K v
-        rayleigh += w * v[k] / norm;
-        v[k] = w;
-      }
-    if (it > 50 && std::abs(rayleigh - lambda) < 1e-6 * rayleigh) return rayleigh;
-    lambda = rayleigh;
-  }
-  ADD_FAILURE() << "power iteration did not converge";
-  return lambda;
-}
 
 class PdStability : public ::testing::TestWithParam<StabilityCase> {};
 
@@ -78,7 +50,7 @@ TEST_P(PdStability, ReportedStepIsBelowTheVerletLimitOfTheBody) {
   PdSystem sys;
   sys.addBody(spec);
   sys.finalise();
-  const double limit = 2.0 / std::sqrt(largestEigenvalue(sys));
+  const double limit = sys.verletLimit(0);
   const double reported = sys.criticalTimeStep();
   const double cp = sys.bodies()[0].spec.material.cflWaveSpeed();
   std::printf("[measured] %s nu = %.2f, delta = %.1f h, %s, influence %s%s, %zu particles: Verlet limit %.4g s = "
@@ -88,6 +60,55 @@ TEST_P(PdStability, ReportedStepIsBelowTheVerletLimitOfTheBody) {
   EXPECT_LT(reported, limit);
   // Conservative, but not by so much that dt: auto wastes most of the steps.
   EXPECT_GT(reported, limit / 3.0);
+}
+
+/// Largest |u| over `steps` Verlet steps at dt from a tiny random displacement.
+double largestDisplacement(PdSystem& sys, double dt, int steps) {
+  auto& u = sys.particles().displacement;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  const double u0 = 1e-9 * sys.bodies()[0].spacing;
+  for (auto& x : u) x = u0 * uniform(rng);
+  std::fill(sys.particles().velocity.begin(), sys.particles().velocity.end(), 0.0);
+  sys.computeForces();
+  double largest = 0.0;
+  for (int s = 0; s < steps && largest < 1e6 * u0; ++s) {
+    sys.step(dt);
+    for (const double x : u) largest = std::max(largest, std::abs(x));
+  }
+  return largest / u0;
+}
+
+// `critical_step: measured`: the reported step is kMeasuredStepSafety of the
+// body's Verlet limit. Verlet stays bounded at it and at 0.99 of the limit,
+// and blows up at 1.02 of it, so the limit is the body's true one (the
+// sphere of LPS at nu = 0.48 is the case whose rule lies furthest below it).
+TEST(PdStability, MeasuredStepIsTheVerletLimitTimesTheSafety) {
+  const double h = 0.015;
+  auto spec = test::box("body", "lps", 8, 8, 8, h, 2.0, 0.48);
+  spec.shape = Shape::Sphere;
+  spec.center = {0.4, 0.2, 0.9};  // off the origin: coordinates carry round-off
+  spec.radius = 5.0 * h;
+  spec.material.youngsModulus = 1.0e8;
+  spec.material.density = 1100.0;
+  PdSystem sys;
+  sys.addBody(spec);
+  auto twin = spec;  // a translate: shares the first body's iteration
+  twin.name = "twin";
+  twin.center = {0.4, 0.5, 0.9};
+  sys.addBody(twin);
+  sys.finalise();
+  const double rule = sys.criticalTimeStep();
+  const double limit = sys.verletLimit(0);
+  sys.measureCriticalSteps(kMeasuredStepSafety);
+  const double measured = sys.criticalTimeStep();
+  std::printf("[measured] LPS sphere nu = 0.48, delta = 2 h: rule %.4g s, Verlet limit %.4g s, measured step %.4g s\n",
+              rule, limit, measured);
+  EXPECT_NEAR(measured, kMeasuredStepSafety * limit, 1e-9 * limit);
+  EXPECT_GT(measured, 1.5 * rule);
+  EXPECT_LT(largestDisplacement(sys, measured, 3000), 1e2);
+  EXPECT_LT(largestDisplacement(sys, 0.99 * limit, 3000), 1e3);
+  EXPECT_GE(largestDisplacement(sys, 1.02 * limit, 3000), 1e6);
 }
 
 INSTANTIATE_TEST_SUITE_P(Pd, PdStability,

@@ -30,6 +30,10 @@ double PdSystem::criticalTimeStep() const {
   // delta = 1.5 h and 5 % at delta = 2 h (nu = 0.25). 0.45 delta / c_p is below every one.
   constexpr double kHorizonFraction = 0.45;
   double dt = std::numeric_limits<double>::infinity();
+  if (!measuredStep_.empty()) {
+    for (const double m : measuredStep_) dt = std::min(dt, m);
+    return dt;
+  }
   for (const auto& b : bodies_) dt = std::min(dt, kHorizonFraction * b.horizon / b.spec.material.cflWaveSpeed());
   return dt;
 }

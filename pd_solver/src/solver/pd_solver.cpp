@@ -180,7 +180,8 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
     throw SolverError(Error::Code::BAD_INPUT, "advance: dt = " + std::to_string(req.dt) +
                                                   " s exceeds the PD critical step " + std::to_string(crit) +
-                                                  " s (0.45 delta / c_p, docs/pd.md); set 'force: true' to override");
+                                                  " s (" + criticalStepRule() +
+                                                  ", docs/pd.md); set 'force: true' to override");
   std::vector<double> f0, f1;
   const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
   // Forces sent with their stiffness follow their particles over the sub-steps
@@ -377,6 +378,13 @@ void PdSolver::restore(const std::string& path) {
   startEnergyBalance();
 }
 
+std::string PdSolver::criticalStepRule() const {
+  if (!system_.criticalStepsMeasured()) return "0.45 delta / c_p";
+  std::ostringstream s;
+  s << kMeasuredStepSafety << " x 2 / omega_max, measured at setup";
+  return s.str();
+}
+
 double PdSolver::time() const { return system_.time(); }
 std::uint64_t PdSolver::step() const { return system_.stepCount(); }
 double PdSolver::criticalDt() const { return ready_ ? system_.criticalTimeStep() : 0.0; }
@@ -388,8 +396,8 @@ cosim::wire::NamedValues PdSolver::energies() const {
     std::ostringstream m;
     m.precision(6);
     m << *broken << ", at t = " << system_.time() << " s (step " << system_.stepCount()
-      << "): the PD integration is unstable at dt = " << lastDt_ << " s (critical step 0.45 delta / c_p = "
-      << system_.criticalTimeStep()
+      << "): the PD integration is unstable at dt = " << lastDt_ << " s (critical step " << criticalStepRule()
+      << " = " << system_.criticalTimeStep()
       << " s); lower dt, or set params.energy_tolerance: 0 to turn the check off";
     throw SolverError(Error::Code::SOLVER_FAILURE, m.str());
   }

@@ -230,7 +230,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
   Reader r{sceneFile};
   PdConfig c;
   r.allowOnly(params, "params", {"bodies", "boundary", "loads", "body_force", "integrator", "inputs",
-                                 "force", "hybrid", "output", "quasi_static", "energy_tolerance"});
+                                 "force", "hybrid", "output", "quasi_static", "energy_tolerance", "critical_step"});
   const auto bodies = params["bodies"];
   if (!bodies || !bodies.IsSequence() || bodies.size() == 0)
     r.fail(params, "'bodies' must be a non-empty list");
@@ -291,6 +291,11 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
     c.interpolate = v == "interpolate";
   }
   if (params["force"]) c.force = r.flag(params["force"], "force");
+  if (const auto n = params["critical_step"]) {
+    const auto v = r.text(n, "critical_step");
+    if (v != "rule" && v != "measured") r.fail(n, "'critical_step' must be rule or measured");
+    c.measuredCriticalStep = v == "measured";
+  }
   if (const auto n = params["energy_tolerance"]) {
     c.energyTolerance = r.number(n, "energy_tolerance");
     if (!(c.energyTolerance >= 0.0)) r.fail(n, "'energy_tolerance' must be >= 0 (0 turns the check off)");
@@ -323,6 +328,7 @@ void buildSystem(const PdConfig& c, PdSystem& system, const std::string& sceneFi
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(sceneFile + ": " + e.what());
   }
+  if (c.measuredCriticalStep) system.measureCriticalSteps(kMeasuredStepSafety);
 }
 
 }  // namespace cosim::pd

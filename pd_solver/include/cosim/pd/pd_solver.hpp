@@ -41,6 +41,8 @@ class PdSolver final : public cosim::wire::Solver {
   /// positions, radii, horizons) at setup and in fields, after an advance
   /// only positions and velocities in the set's order (pddem.capnp).
   void writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const;
+  /// How the critical step was found, for messages.
+  std::string criticalStepRule() const;
   void checkFinite() const;
   /// Starts the energy balance from the current state (setup, restore).
   void startEnergyBalance();

@@ -11,6 +11,11 @@
 
 namespace cosim::pd {
 
+/// Fraction of the measured Verlet limit 2 / omega_max a measured critical
+/// step keeps: power iteration approaches omega_max from below, and large
+/// strains and contacts stiffen the body (docs/pd.md, "Measured critical step").
+constexpr double kMeasuredStepSafety = 0.9;
+
 struct PdConfig {
   std::vector<BodySpec> bodies;
   std::vector<int> bodyLines;  // scene line of each body entry
@@ -22,6 +27,9 @@ struct PdConfig {
   bool staggered = false;    // integrator: staggered (Hartmann Eq. 47) | verlet
   bool interpolate = false;  // inputs: interpolate | hold
   bool force = false;        // accept dt above the critical step
+  /// critical_step: rule (0.45 delta / c_p) | measured (kMeasuredStepSafety x
+  /// 2 / omega_max of each body, power iteration at setup; critical_step.cpp)
+  bool measuredCriticalStep = false;
   double energyTolerance = 0.5;  // EnergyBalance tolerance (0 = off)
   bool hybrid = true;        // export hybrid surface particles
   bool quasiStatic = false;  // advance = adaptive dynamic relaxation to equilibrium

@@ -113,8 +113,16 @@ class PdSystem {
   std::size_t relax(double tolerance, std::size_t maxIterations);
 
   /// Stable step of velocity Verlet, after Hartmann Eqs. 41-42 with the
-  /// horizon as the length: min over bodies of 0.45 delta / c_p (verlet.cpp).
+  /// horizon as the length: min over bodies of 0.45 delta / c_p (verlet.cpp),
+  /// or of the measured steps once measureCriticalSteps ran.
   double criticalTimeStep() const;
+  /// Replaces the rule by safety x 2 / omega_max of each body, omega_max by
+  /// power iteration at the current configuration (critical_step.cpp);
+  /// bodies with the same spectrum share one iteration.
+  void measureCriticalSteps(double safety);
+  bool criticalStepsMeasured() const { return !measuredStep_.empty(); }
+  /// Verlet's limit 2 / omega_max of body b, by power iteration.
+  double verletLimit(std::size_t b);
   Energies energies() const;
   double time() const { return time_; }
   std::uint64_t stepCount() const { return step_; }
@@ -165,6 +173,7 @@ class PdSystem {
   double time_ = 0.0;
   std::uint64_t step_ = 0;
   double work_ = 0.0;
+  std::vector<double> measuredStep_;  // per body, empty: the rule
   bool finalised_ = false;
 };
 
