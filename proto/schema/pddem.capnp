@@ -13,7 +13,8 @@ struct HybridParticles {
   bodyIds @1 :List(UInt32);
   referencePositions @2 :List(Float64); # 3 per particle
   positions @3 :List(Float64);          # 3 per particle
-  velocities @4 :List(Float64);         # 3 per particle
+  velocities @4 :List(Float64);         # 3 per particle: the velocity to drift with over the next interval
+                                        # (PD's Verlet: v_{n+1/2} = v_n + dt/2 a_n, so DEM's drift ends where PD's will)
   radii @5 :List(Float64);              # quasi-radius R = (3V / 4 pi)^(1/3), Hartmann Eq. 39
   horizons @6 :List(Float64);           # per body: pairs of one family closer than this are excluded
   wantStiffness @7 :Bool;               # set by the coupler: return HybridForces.positions and .stiffness

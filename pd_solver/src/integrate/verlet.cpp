@@ -105,8 +105,20 @@ void PdSystem::computeForces() {
   computeExternal();
 }
 
-void PdSystem::applyConstraints() {
-  auto& v = particles_.velocity;
+void PdSystem::applyConstraints() { constrain(particles_.velocity); }
+
+const std::vector<double>& PdSystem::driftVelocities(double dt) const {
+  const auto& v = particles_.velocity;
+  const auto& fi = particles_.internalForce;
+  const auto& fe = particles_.externalForce;
+  const auto& m = particles_.mass;
+  driftVelocity_.resize(v.size());
+  for (std::size_t q = 0; q < v.size(); ++q) driftVelocity_[q] = v[q] + 0.5 * dt * (fi[q] + fe[q]) / m[q / 3];
+  constrain(driftVelocity_);
+  return driftVelocity_;
+}
+
+void PdSystem::constrain(std::vector<double>& v) const {
   for (const auto& bc : bcs_) {
     for (std::size_t q = 0; q < bc.particles.size(); ++q) {
       const std::size_t i = bc.particles[q];

@@ -41,6 +41,9 @@ class PdSolver final : public cosim::wire::Solver {
   /// positions, radii, horizons) at setup and in fields, after an advance
   /// only positions and velocities in the set's order (pddem.capnp).
   void writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const;
+  /// Whether an advance of `steps` Verlet steps applies the received coupling
+  /// force from after its drift (one step, force held: the end-of-step force).
+  bool endOfStepCoupling(std::uint32_t steps, bool interpolate) const;
   /// How the critical step was found, for messages.
   std::string criticalStepRule() const;
   void checkFinite() const;

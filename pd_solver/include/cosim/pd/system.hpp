@@ -104,6 +104,9 @@ class PdSystem {
 
   /// One velocity-Verlet step (Hartmann Eq. 44 in its synchronised form).
   void step(double dt);
+  /// The velocities the next step's drift uses if the forces stay those of
+  /// the state: v + dt/2 (f_int + f_ext) / m, constraints applied.
+  const std::vector<double>& driftVelocities(double dt) const;
   /// One staggered step (Hartmann Eq. 47): coupling and body-force kick and
   /// drift first, then peridynamic forces at the updated positions, second kick.
   void stepStaggered(double dt);
@@ -158,6 +161,8 @@ class PdSystem {
   bool sharesBodiesOut() const;
   void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;
   void applyConstraints();
+  /// Applies the boundary conditions to a velocity field.
+  void constrain(std::vector<double>& v) const;
   void kick(double dt);
   void drift(double dt);
 
@@ -170,6 +175,7 @@ class PdSystem {
   std::vector<LinearisedCoupling> linearised_;
   std::vector<double> externalPrev_;
   std::vector<double> velocityBefore_, velocityCoupled_;  // stepStaggered scratch
+  mutable std::vector<double> driftVelocity_;             // driftVelocities' result
   double time_ = 0.0;
   std::uint64_t step_ = 0;
   double work_ = 0.0;
