@@ -171,12 +171,13 @@ void DemSystem::advance(double dt) {
   }
   integrator_->beforeForces(particles, dt);
   // Driven particles (coupled hybrid PD particles, scene-driven spheres) are
-  // not integrated; between the states sent from outside they move with their velocity.
+  // not integrated; between the states sent from outside they move with their
+  // velocity. Flag 2 parks one where it is (hybrid_watch.hpp).
   const std::size_t n = particles.size();
   if (driven) {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (std::size_t i = 0; i < n; ++i)
-      if (particles.driven[i]) particles.x[i] += dt * particles.v[i];
+      if (particles.driven[i] == 1) particles.x[i] += dt * particles.v[i];
   }
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)

@@ -18,6 +18,15 @@ struct HybridParticles {
   radii @5 :List(Float64);              # quasi-radius R = (3V / 4 pi)^(1/3), Hartmann Eq. 39
   horizons @6 :List(Float64);           # per body: pairs of one family closer than this are excluded
   wantStiffness @7 :Bool;               # set by the coupler: return HybridForces.positions and .stiffness
+  # Partial states (the hybrid watch, docs/protocol.md): with `partial` the
+  # positions and velocities are those of the set's particles at `indices`
+  # (positions in the set, the watch set DEM sent for full message
+  # `watchBasis`); every other particle is farther than DEM's watch distance
+  # from everything it could touch and keeps its last state in DEM.
+  serial @8 :UInt64;                    # names the message: its exchange + 1 (setup 1); 0 outside exchanges
+  partial @9 :Bool;
+  indices @10 :List(UInt32);
+  watchBasis @11 :UInt64;               # serial of the full message whose watch set `indices` is
 }
 
 # Forces of the loaded particles only: a particle not listed has no contact
@@ -30,4 +39,19 @@ struct HybridForces {
   # it: f(x) = forces - K (x - positions). Empty: hold the force.
   positions @2 :List(Float64);          # 3 per particle, where `forces` was evaluated (interval mean)
   stiffness @3 :List(Float64);          # 6 per particle, K = -df/dx: xx yy zz xy xz yz
+  # The hybrid watch (docs/protocol.md), a Verlet skin across the wire. After
+  # a full state message DEM lists the particles within r_i + r_j + skin +
+  # watchMargin of anything they could touch (`watched`, positions in the set)
+  # and names that message (`watchBasis`, its serial). PD may then send the
+  # watched particles' states alone while every hybrid particle stays within
+  # watchMargin / 2 of where that message put it, counting the drift
+  # watchInterval |v| of each state sent; DEM keeps its own particles and walls
+  # within watchMargin / 2 and sets `sendAll` when they come near it. So a
+  # particle left out cannot reach anything before the next full message.
+  watchSet @4 :Bool;                    # this reply carries a new watch set
+  watched @5 :List(UInt32);
+  watchMargin @6 :Float64;
+  watchInterval @7 :Float64;            # the time DEM drifts a state over (its interval)
+  watchBasis @8 :UInt64;
+  sendAll @9 :Bool;                     # DEM needs every particle's state in the next message
 }

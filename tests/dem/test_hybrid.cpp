@@ -61,6 +61,7 @@ struct Hybrids {
     std::copy(x.begin(), x.end(), wire::view(h.initPositions(3 * n)).begin());
     std::copy(v.begin(), v.end(), wire::view(h.initVelocities(3 * n)).begin());
     h.setWantStiffness(wantStiffness);
+    h.setSerial(serial);
     if (!withSet) return;
     std::copy(ids.begin(), ids.end(), wire::view(h.initIds(n)).begin());
     wire::view(h.initBodyIds(n));
@@ -68,7 +69,27 @@ struct Hybrids {
     for (double& r : wire::view(h.initRadii(n))) r = 0.01;
     wire::view(h.initHorizons(1))[0] = 0.015;
   }
+  /// The hybrid watch's partial states: set positions `indices` only, resting on full message `basis`.
+  void writePartial(proto::CouplingData::Builder data, const std::vector<std::uint32_t>& indices,
+                    std::uint64_t basis) const {
+    auto h = data.initHybridParticles(1)[0];
+    const auto m = static_cast<unsigned>(indices.size());
+    auto idx = wire::view(h.initIndices(m));
+    auto px = wire::view(h.initPositions(3 * m));
+    auto pv = wire::view(h.initVelocities(3 * m));
+    for (unsigned r = 0; r < m; ++r) {
+      idx[r] = indices[r];
+      for (unsigned d = 0; d < 3; ++d) {
+        px[3 * r + d] = x[3 * indices[r] + d];
+        pv[3 * r + d] = v[3 * indices[r] + d];
+      }
+    }
+    h.setPartial(true);
+    h.setWatchBasis(basis);
+    h.setSerial(serial);
+  }
   bool wantStiffness = false;
+  std::uint64_t serial = 0;  // the message's name for the hybrid watch (exchange + 1)
 };
 
 struct DemRun {
@@ -324,6 +345,167 @@ TEST_P(HybridStiffness, PredictsTheForceChangeOfASmallMove) {
 }
 
 INSTANTIATE_TEST_SUITE_P(StickingAndFrictionless, HybridStiffness, ::testing::Values(1.0, 0.0));
+
+// ---- The hybrid watch (hybrid_watch.hpp, pddem.capnp) ----------------------
+
+/// The watch fields of a reply, copied out (the reply's message is reused).
+struct WatchReply {
+  bool watchSet = false, sendAll = false;
+  std::vector<std::uint32_t> watched;
+  double margin = 0.0, interval = 0.0;
+  std::uint64_t basis = 0;
+  explicit WatchReply(proto::HybridForces::Reader f)
+      : watchSet(f.getWatchSet()), sendAll(f.getSendAll()), margin(f.getWatchMargin()),
+        interval(f.getWatchInterval()), basis(f.getWatchBasis()) {
+    const auto w = wire::view(f.getWatched());
+    watched.assign(w.begin(), w.end());
+  }
+};
+
+std::string withWatchMargin(const std::string& margin) {
+  std::string scene = kScene;
+  const std::string key = "hybrid: {material: pd-surface}";
+  scene.replace(scene.find(key), key.size(), "hybrid: {material: pd-surface, watch_margin: " + margin + "}");
+  return scene;
+}
+
+// DEM lists the hybrids within r_i + r_j + skin + m of a partner or within
+// r_i + skin + m of a plane, once it knows the time a state drifts over (from
+// the second message on): A, B, C, E here (skin 2 mm, m = 4 x skin), not D
+// in the air. A margin reaching the floor lists D too; margin 0 lists nothing.
+TEST(HybridWatch, ListsTheHybridsWithinReachFromTheSecondMessageOn) {
+  Hybrids h;
+  h.serial = 1;
+  DemRun run(h);
+  const WatchReply first(run.advance(3, 1e-5));
+  EXPECT_FALSE(first.watchSet);
+  EXPECT_TRUE(first.sendAll);
+  h.serial = 2;
+  h.write(run.inputs, false);
+  const WatchReply second(run.advance(3, 1e-5));
+  ASSERT_TRUE(second.watchSet);
+  EXPECT_EQ(second.watched, (std::vector<std::uint32_t>{0, 1, 2, 4}));
+  EXPECT_EQ(second.basis, 2u);
+  EXPECT_DOUBLE_EQ(second.margin, 4.0 * 0.2 * 0.01);
+  EXPECT_DOUBLE_EQ(second.interval, 3e-5);
+  EXPECT_FALSE(second.sendAll);
+
+  DemRun wide(h, withWatchMargin("0.6"));  // D is 0.5095 m above the floor
+  wide.advance(3, 1e-5);
+  const WatchReply all(wide.advance(3, 1e-5));
+  EXPECT_EQ(all.watched, (std::vector<std::uint32_t>{0, 1, 2, 3, 4}));
+  DemRun off(h, withWatchMargin("0"));
+  off.advance(3, 1e-5);
+  const WatchReply none(off.advance(3, 1e-5));
+  EXPECT_FALSE(none.watchSet);
+  EXPECT_TRUE(none.sendAll);
+  try {
+    DemRun bad(h, withWatchMargin("-1"));
+    FAIL() << "a negative watch margin was accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("watch_margin"), std::string::npos) << e.what();
+  }
+}
+
+// The watch's point: DEM computes the same forces from the watched states
+// alone as from all of them. Two runs over 30 exchanges, the hybrids moving
+// (with their velocities, plus small jumps); one gets every state, the other
+// the watched ones whenever it may (every tenth message full): every force
+// and the free sphere's position agree bit for bit, and the parked particle
+// D stays where its last full state drifted it.
+TEST(HybridWatch, PartialStatesGiveTheForcesOfFullStates) {
+  Hybrids h;
+  h.v[9] = 1e-3;  // D drifts sideways
+  DemRun full(h), part(h);
+  std::vector<std::uint32_t> watched;
+  std::uint64_t basis = 0;
+  bool sendAll = true;
+  int partials = 0;
+  const auto& pd = part.solver.system().particles;
+  const std::uint32_t iD = part.solver.hybrids().particleIndices()[3];
+  for (std::uint32_t s = 0; s < 30; ++s) {
+    Hybrids moved = h;
+    for (std::size_t c = 0; c < moved.x.size(); ++c) moved.x[c] += 3e-5 * s * moved.v[c] + 2e-7 * s * (c % 3 == 0);
+    moved.serial = s + 2;
+    moved.write(full.inputs, false);
+    const bool partial = !watched.empty() && !sendAll && s % 10 != 0;
+    if (partial) moved.writePartial(part.inputs, watched, basis);
+    else moved.write(part.inputs, false);
+    const Vec3 dBefore = pd.x[iD];
+    const auto a = full.advance(3, 1e-5);
+    const auto b = part.advance(3, 1e-5);
+    for (std::uint32_t k = 0; k < 5; ++k)
+      for (int d = 0; d < 3; ++d) EXPECT_EQ(forceOf(a, k)[d], forceOf(b, k)[d]) << "exchange " << s << " particle " << k;
+    if (partial) {
+      ++partials;
+      EXPECT_EQ(pd.x[iD].x, dBefore.x) << "the parked particle moved at exchange " << s;
+    }
+    const WatchReply w(b);
+    sendAll = w.sendAll;
+    if (w.watchSet) watched = w.watched, basis = w.basis;
+  }
+  EXPECT_GE(partials, 20);
+  const auto& pa = full.solver.system().particles;
+  EXPECT_EQ(pa.x[0].z, pd.x[0].z);  // the free sphere
+  EXPECT_EQ(pa.v[0].z, pd.v[0].z);
+}
+
+TEST(HybridWatch, PartialStatesOutsideTheWatchSetAreRefused) {
+  Hybrids h;
+  auto refused = [](DemRun& run, const std::string& expected) {
+    try {
+      run.advance(3, 1e-5);
+      ADD_FAILURE() << "accepted; expected a refusal naming '" << expected << "'";
+    } catch (const wire::SolverError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  DemRun early(h);
+  h.writePartial(early.inputs, {0, 1, 2, 4}, 1);
+  refused(early, "before this DEM process listed any watch set");
+  DemRun run(h);
+  run.advance(3, 1e-5);
+  h.serial = 2;
+  h.write(run.inputs, false);
+  ASSERT_TRUE(WatchReply(run.advance(3, 1e-5)).watchSet);
+  h.writePartial(run.inputs, {0, 1, 2, 4}, 1);
+  refused(run, "rest on the watch set of message 1, but this DEM process holds the one of message 2");
+  h.writePartial(run.inputs, {0, 1, 2}, 2);
+  refused(run, "lists 4 others");
+}
+
+// DEM keeps its own particles and planes within m/2 of where they were at the
+// watch set: it asks for every state (sendAll) two moves ahead, and a run that
+// keeps sending partial states anyway is stopped, naming the wall.
+TEST(HybridWatch, AWallPassingHalfTheMarginAsksForEveryStateAndStopsAPartialRun) {
+  std::string scene = withWatchMargin("0.001");
+  scene += "        - {type: plane, name: lid, point: [0, 0, 1], normal: [0, 0, -1], velocity: [0, 0, -1], "
+           "material: grain}\n";
+  Hybrids h;
+  DemRun run(h, scene);
+  run.advance(3, 1e-5);
+  h.serial = 2;
+  h.write(run.inputs, false);
+  const WatchReply w(run.advance(3, 1e-5));
+  ASSERT_TRUE(w.watchSet);
+  int askedAt = -1;
+  for (int s = 0; s < 40; ++s) {
+    h.writePartial(run.inputs, w.watched, w.basis);
+    try {
+      if (WatchReply(run.advance(3, 1e-5)).sendAll && askedAt < 0) askedAt = s;
+    } catch (const wire::SolverError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("wall 'lid'"), std::string::npos) << what;
+      EXPECT_NE(what.find("watch_margin"), std::string::npos) << what;
+      // The lid moves 3e-5 m an exchange from 3e-5 m at the watch set: past 5e-4 m at the 16th.
+      EXPECT_EQ(s, 15);
+      EXPECT_GE(askedAt, 0);
+      EXPECT_GE(s - askedAt, 2);
+      return;
+    }
+  }
+  FAIL() << "the lid passed half the watch margin unnoticed";
+}
 
 }  // namespace
 }  // namespace cosim::dem

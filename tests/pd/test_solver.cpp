@@ -335,6 +335,81 @@ TEST(PdSolverAdvance, HybridVelocityIsTheNextDrift) {
   EXPECT_GT(std::abs(x2[3 * 5 + 2] - x1[3 * 5 + 2]), 1e4 * 1e-17);  // the pushed particle moved
 }
 
+// The hybrid watch (pddem.capnp, hybrid_watch.hpp): once DEM's reply lists
+// the hybrids it watches for PD's last full message, PD sends their states
+// alone (bitwise the states of a full message) while every hybrid stays
+// within half the margin of that message's position, its drift over DEM's
+// interval counted; a stale set, DEM's sendAll, or a hybrid beyond the
+// margin bring every state back, and a malformed set is refused.
+TEST(PdSolverAdvance, HybridStatesFollowTheWatchSet) {
+  Fixture f(scene()), reference(scene());
+  ASSERT_EQ(f.out.getRoot<CouplingData>().asReader().getHybridParticles()[0].getSerial(), 1u);
+  const auto set = f.out.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+  const std::uint32_t pushed = set.getIds()[5];
+  const double dt = 0.5 * f.solver.criticalDt();
+  struct Watch {
+    std::uint64_t basis = 0;
+    std::vector<std::uint32_t> watched;
+    double margin = 0.0;
+    bool sendAll = false;
+  };
+  capnp::MallocMessageBuilder out, refOut;
+  std::uint64_t exchange = 0;
+  auto advance = [&](const Watch& w) {
+    capnp::MallocMessageBuilder in;
+    auto d = in.initRoot<CouplingData>();
+    auto hf = d.initHybridForces(1)[0];
+    hf.initIds(1).set(0, pushed);
+    hf.initForces(3).set(2, 5.0);
+    hf.setSendAll(w.sendAll);
+    if (w.basis > 0) {
+      hf.setWatchSet(true);
+      hf.setWatchBasis(w.basis);
+      hf.setWatchMargin(w.margin);
+      hf.setWatchInterval(dt);
+      auto l = hf.initWatched(static_cast<unsigned>(w.watched.size()));
+      for (unsigned k = 0; k < w.watched.size(); ++k) l.set(k, w.watched[k]);
+    }
+    cosim::wire::AdvanceRequest req;
+    req.steps = 1;
+    req.dt = dt;
+    req.exchange = ++exchange;
+    req.inputs = d.asReader();
+    f.solver.advance(req, out.initRoot<CouplingData>());
+    hf.setWatchSet(false);  // the reference run gets no watch set: every state
+    reference.solver.advance(req, refOut.initRoot<CouplingData>());
+    return out.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+  };
+  // DEM's set for the setup's message (serial 1): particles 2 and 5.
+  auto h = advance({1, {2, 5}, 1e-3});
+  EXPECT_TRUE(h.getPartial());
+  EXPECT_EQ(h.getSerial(), 2u);
+  EXPECT_EQ(h.getWatchBasis(), 1u);
+  ASSERT_EQ(h.getIndices().size(), 2u);
+  const auto full = refOut.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+  EXPECT_FALSE(full.getPartial());
+  for (unsigned r = 0; r < 2; ++r)
+    for (unsigned d = 0; d < 3; ++d) {
+      const unsigned q = h.getIndices()[r];
+      EXPECT_EQ(h.getPositions()[3 * r + d], full.getPositions()[3 * q + d]);
+      EXPECT_EQ(h.getVelocities()[3 * r + d], full.getVelocities()[3 * q + d]);
+    }
+  // DEM asks for every state: a full message (serial 3), and the set of message 1 is stale now.
+  EXPECT_FALSE(advance({0, {}, 0.0, true}).getPartial());
+  EXPECT_FALSE(advance({1, {2, 5}, 1e-3}).getPartial());
+  // The set of message 4 (the last full one) with a margin the pushed particle
+  // stays inside, then one it passes: its drift dt v is about 2e-9 m a step.
+  EXPECT_TRUE(advance({4, {5}, 1e-3}).getPartial());
+  EXPECT_TRUE(advance({5, {5}, 1e-11}).getPartial());  // message 5 was partial: a stale basis
+  EXPECT_FALSE(advance({4, {5}, 1e-11}).getPartial());
+  try {
+    advance({7, {5, 2}, 1e-3});
+    FAIL() << "a watched set out of order was accepted";
+  } catch (const cosim::wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("watched set position"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
   Fixture f(scene());
   const double crit = f.solver.criticalDt();

@@ -29,8 +29,9 @@ std::size_t InputAssembler::words() const {
   for (const auto& r : results_) w += r.stresses.size() + 4 * r.cellIds.size() + 32;
   for (const auto& h : hybridParticles_)
     w += h.ids.size() + h.referencePositions.size() + h.positions.size() + h.velocities.size() + h.radii.size() +
-         h.horizons.size() + 32;
-  for (const auto& h : hybridForces_) w += h.ids.size() / 2 + h.forces.size() + h.positions.size() + h.stiffness.size() + 16;
+         h.horizons.size() + h.indices.size() / 2 + 40;
+  for (const auto& h : hybridForces_)
+    w += h.ids.size() / 2 + h.forces.size() + h.positions.size() + h.stiffness.size() + h.watch.watched.size() / 2 + 24;
   return w;
 }
 
@@ -59,6 +60,10 @@ void InputAssembler::buildHybrid(proto::CouplingData::Builder data) const {
       copyInto(out.initRadii(static_cast<unsigned>(h.radii.size())), h.radii);
       copyInto(out.initHorizons(static_cast<unsigned>(h.horizons.size())), h.horizons);
       out.setWantStiffness(h.wantStiffness);
+      out.setSerial(h.serial);
+      out.setPartial(h.partial);
+      out.setWatchBasis(h.watchBasis);
+      if (h.partial) copyInto(out.initIndices(static_cast<unsigned>(h.indices.size())), h.indices);
     }
   }
   if (!hybridForces_.empty()) {
@@ -67,6 +72,15 @@ void InputAssembler::buildHybrid(proto::CouplingData::Builder data) const {
       const auto& h = hybridForces_[i];
       copyInto(list[i].initIds(static_cast<unsigned>(h.ids.size())), h.ids);
       copyInto(list[i].initForces(static_cast<unsigned>(h.forces.size())), h.forces);
+      const auto& w = h.watch;
+      list[i].setSendAll(w.sendAll);
+      if (w.watchSet) {
+        list[i].setWatchSet(true);
+        copyInto(list[i].initWatched(static_cast<unsigned>(w.watched.size())), w.watched);
+        list[i].setWatchMargin(w.margin);
+        list[i].setWatchInterval(w.interval);
+        list[i].setWatchBasis(w.basis);
+      }
       if (h.stiffness.empty()) continue;
       copyInto(list[i].initPositions(static_cast<unsigned>(h.positions.size())), h.positions);
       copyInto(list[i].initStiffness(static_cast<unsigned>(h.stiffness.size())), h.stiffness);

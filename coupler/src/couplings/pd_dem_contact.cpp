@@ -36,6 +36,8 @@
 // PD sends it with its setup outputs, states alone after that (pddem.capnp),
 // and this coupling keeps it and sends it to DEM until a reply of DEM's
 // carries hybrid forces (then DEM holds it): the states are half the bytes.
+// With the hybrid watch (pddem.capnp) PD sends only the states DEM watches;
+// this coupling passes the watch set and the partial states through.
 #include <ostream>
 #include <stdexcept>
 
@@ -112,7 +114,11 @@ class PdDemContact final : public Coupling {
       staged.positions = wire::view(h.getPositions());
       staged.velocities = wire::view(h.getVelocities());
       staged.wantStiffness = linearised_;
-      const std::size_t n = carriesSet ? h.getIds().size() : set_.ids.size();
+      staged.serial = h.getSerial();
+      staged.partial = h.getPartial();
+      staged.watchBasis = h.getWatchBasis();
+      if (staged.partial) staged.indices = wire::view(h.getIndices());
+      const std::size_t n = staged.partial ? staged.indices.size() : carriesSet ? h.getIds().size() : set_.ids.size();
       if (staged.positions.size() != 3 * n || staged.velocities.size() != 3 * n)
         throw std::runtime_error("coupling '" + name() + "': solver '" + pd_ + "' sent " +
                                  std::to_string(staged.positions.size()) + " position and " +
@@ -146,6 +152,8 @@ class PdDemContact final : public Coupling {
       const auto ids = wire::view(f.getIds());
       const auto forces = wire::view(f.getForces());
       InputAssembler::StagedHybridForces staged{ids, forces};
+      // A replayed reply's watch set rests on a message of the processes before the resume.
+      if (!ctx.replay) staged.watch = watchOf(f);
       if (linearised_) {
         staged.positions = wire::view(f.getPositions());
         staged.stiffness = wire::view(f.getStiffness());
@@ -158,6 +166,18 @@ class PdDemContact final : public Coupling {
       ctx.inputs[pd_].stageHybridForces(staged);
       record(ids, forces, ctx);
     }
+  }
+
+  static InputAssembler::StagedHybridWatch watchOf(proto::HybridForces::Reader f) {
+    InputAssembler::StagedHybridWatch w;
+    w.sendAll = f.getSendAll();
+    w.watchSet = f.getWatchSet();
+    if (!w.watchSet) return w;
+    w.watched = wire::view(f.getWatched());
+    w.margin = f.getWatchMargin();
+    w.interval = f.getWatchInterval();
+    w.basis = f.getWatchBasis();
+    return w;
   }
 
   /// Total force on PD's surface (= minus the force on DEM spheres and walls) and

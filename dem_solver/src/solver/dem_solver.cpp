@@ -77,6 +77,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     throw SolverError(Code::BAD_INPUT, e.what());
   }
   hybrids_ = HybridSpheres{};
+  hybrids_.watch().requestedMargin = settings_.hybridWatchMargin;
   applyInputs(context.inputs);
   applyWeightProfile(context.inputs);
   selectZoneMembers();
@@ -261,7 +262,7 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     energyBalanceStarted_ = false;  // new particles bring their own energy
   }
   contactSums_.assign(system_.meshes.size(), {});
-  hybrids_.beginInterval();
+  hybrids_.beginInterval(system_, request.dt * request.steps);
   zoneForceSums_.assign(zoneMembers_.empty() ? 0 : system_.particles.size(), {});
   for (std::uint32_t s = 0; s < request.steps; ++s) {
     // A drive sets its particles' velocities; holding them on that path is
@@ -270,12 +271,16 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     system_.advance(request.dt);
     checkServoWalls(request.dt);
     accumulateWallContacts();
-    hybrids_.accumulate(system_.particles);
+    hybrids_.accumulate(system_, request.dt);
     for (std::size_t i = 0; i < zoneForceSums_.size(); ++i) zoneForceSums_[i] += system_.particles.f[i];
     if (snapshots_ && system_.step % static_cast<std::uint64_t>(settings_.snapshotEvery) == 0) snapshots_->write(system_);
   }
   averageWallContacts(request.steps);
-  hybrids_.endInterval(request.steps);
+  try {
+    hybrids_.endInterval(request.steps, system_);
+  } catch (const std::runtime_error& e) {
+    throw SolverError(Code::SOLVER_FAILURE, e.what());
+  }
   for (Vec3& f : zoneForceSums_) f = (1.0 / request.steps) * f;
   checkFinite();
   fillOutputs(outputs);

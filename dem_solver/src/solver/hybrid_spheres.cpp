@@ -72,6 +72,21 @@ bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& sys
                                 "positions, radii, horizons); this one holds only positions and velocities");
   if (first) add(message, system, material);
   wantStiffness_ = message.getWantStiffness();
+  stateArrived_ = true;
+  if (lastStateTime_ >= 0.0) cadence_ = system.time - lastStateTime_;
+  lastStateTime_ = system.time;
+  if (message.getPartial()) {
+    applyPartial(message, system);
+    return first;
+  }
+  // Every state: the parked ones move again, and a new watch set follows.
+  partial_ = false;
+  // (Unconditionally: a checkpoint taken while parked holds the flags.)
+  for (const std::uint32_t i : index_) system.particles.driven[i] = 1;
+  parked_ = false;
+  watch_.forget();
+  fullSerial_ = message.getSerial();
+  pendingRebuild_ = true;
   // Without ids the states are the set's, in its order (pddem.capnp).
   const std::size_t n = ids.empty() ? ids_.size() : ids.size();
   if (n != ids_.size())
@@ -91,6 +106,28 @@ bool HybridSpheres::apply(proto::HybridParticles::Reader message, DemSystem& sys
     system.setDrivenState(index_[slot], xk, vk);
   }
   return first;
+}
+
+void HybridSpheres::applyPartial(proto::HybridParticles::Reader message, DemSystem& system) {
+  const auto indices = wire::view(message.getIndices());
+  watch_.checkPartial(message.getWatchBasis(), indices);
+  const auto x = wire::view(message.getPositions());
+  const auto v = wire::view(message.getVelocities());
+  if (x.size() != 3 * indices.size() || v.size() != 3 * indices.size())
+    throw std::invalid_argument("hybrid particles: partial states of " + std::to_string(indices.size()) +
+                                " particles with " + std::to_string(x.size()) + " position and " +
+                                std::to_string(v.size()) + " velocity values (need 3 per particle)");
+  partial_ = true;
+  if (!parked_)  // unwatched hybrids keep the place their last state drifted them to
+    for (std::uint32_t k = 0; k < index_.size(); ++k)
+      if (!watch_.watches(k)) system.particles.driven[index_[k]] = 2;
+  parked_ = true;
+  for (std::size_t q = 0; q < indices.size(); ++q) {
+    const Vec3 xk = at(x, q), vk = at(v, q);
+    if (!finite(xk) || !finite(vk))
+      throw std::invalid_argument("hybrid particles: non-finite state of id " + std::to_string(ids_[indices[q]]));
+    system.setDrivenState(index_[indices[q]], xk, vk);
+  }
 }
 
 std::uint32_t HybridSpheres::slotOf(std::uint32_t id) const {
@@ -151,19 +188,28 @@ void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance
                               " m (params.overlap_tolerance x the smaller radius)");
 }
 
-void HybridSpheres::beginInterval() {
+void HybridSpheres::beginInterval(const DemSystem& system, double interval) {
   impulse_.assign(ids_.size(), {});
   positionSum_.assign(ids_.size(), {});
+  // A watch set needs the time a state drifts over: the time between two
+  // messages, known from the second on.
+  if (pendingRebuild_ && cadence_ > 0.0 && watch_.available(system))
+    watch_.rebuild(system, index_, fullSerial_, std::max(cadence_, interval));
+  watch_.beginInterval(system, partial_, stateArrived_);
+  pendingRebuild_ = stateArrived_ = false;
 }
 
-void HybridSpheres::accumulate(const Particles& p) {
+void HybridSpheres::accumulate(const DemSystem& system, double dt) {
+  watch_.track(system, dt);
+  const Particles& p = system.particles;
   // p.f of a driven sphere is its contact and wall reaction only (no body force).
   for (std::size_t k = 0; k < index_.size(); ++k) impulse_[k] += p.f[index_[k]];
   if (!wantStiffness_) return;  // the mean position goes out with the stiffness only
   for (std::size_t k = 0; k < index_.size(); ++k) positionSum_[k] += p.x[index_[k]];
 }
 
-void HybridSpheres::endInterval(std::uint32_t steps) {
+void HybridSpheres::endInterval(std::uint32_t steps, const DemSystem& system) {
+  watch_.endInterval(system);
   for (std::size_t k = 0; k < impulse_.size(); ++k) {
     mean_[k] = (1.0 / steps) * impulse_[k];
     meanPosition_[k] = (1.0 / steps) * positionSum_[k];
@@ -181,6 +227,7 @@ void HybridSpheres::fill(proto::HybridForces::Builder out, const DemSystem& syst
     const Vec3 fk = averaged_ ? mean_[k] : p.f[index_[k]];
     if (fk.x != 0.0 || fk.y != 0.0 || fk.z != 0.0) loaded.push_back(k);
   }
+  watch_.fill(out);
   const auto n = static_cast<unsigned>(loaded.size());
   auto ids = wire::view(out.initIds(n));
   auto f = wire::view(out.initForces(3 * n));

@@ -471,8 +471,15 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
   readDrives(params, settings);
   // hybrid: {material: name}: the material of hybrid PD particles (Hartmann Sec. 3);
   // they meet DEM spheres, walls and each other through the scene's contact law.
-  const YamlSection hybrid = params.child("hybrid", {"material"});
+  // watch_margin: the hybrid watch's margin in m (hybrid_watch.hpp; 0 = every
+  // state every exchange; default kWatchMarginPerSkin x the Verlet skin).
+  const YamlSection hybrid = params.child("hybrid", {"material", "watch_margin"});
   settings.hybridMaterial = materialOf(hybrid, system);
+  if (hybrid.has("watch_margin")) {
+    settings.hybridWatchMargin = hybrid.number("watch_margin");
+    if (!(settings.hybridWatchMargin >= 0.0) || !std::isfinite(settings.hybridWatchMargin))
+      hybrid.fail("watch_margin", "must be a finite distance >= 0 (0 = send every hybrid state)");
+  }
 }
 
 void checkParticles(const DemSystem& system, double overlapTolerance, const std::string& context) {

@@ -10,6 +10,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cosim/pd/hybrid.hpp"
+#include "cosim/pd/hybrid_watch.hpp"
 #include "cosim/pd/pd_solver.hpp"
 #include "cosim/wire/arrays.hpp"
 
@@ -112,7 +113,7 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
   }
   ready_ = true;
   startEnergyBalance();
-  writeHybrid(outputs, true);
+  writeHybrid(outputs, true, 1);  // exchange 0's message
 }
 
 void PdSolver::startEnergyBalance() {
@@ -191,6 +192,8 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   // Forces sent with their stiffness follow their particles over the sub-steps
   // (pd-dem-contact `forces: linearised`); interpolation takes precedence.
   readHybridForces(req.inputs, f0, &system_.linearisedCoupling());
+  receiveWatch(req.inputs);
+  if (req.inputsEnd.has_value()) receiveWatch(*req.inputsEnd);
   if (interpolate) {
     system_.linearisedCoupling().clear();
     readHybridForces(*req.inputsEnd, f1, nullptr);
@@ -232,7 +235,8 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   checkFinite();
   ++advances_;
   if (snapshots_ && advances_ % config_.outputEvery == 0) snapshots_->write(system_);
-  writeHybrid(outputs, false);
+  // The exchange names the message: the same after a restore.
+  writeHybrid(outputs, false, req.exchange + 1);
 }
 
 void PdSolver::checkFinite() const {
@@ -249,27 +253,52 @@ bool PdSolver::endOfStepCoupling(std::uint32_t steps, bool interpolate) const {
   return steps == 1 && !interpolate && !config_.staggered && !config_.quasiStatic;
 }
 
-void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const {
+void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet, std::uint64_t serial) {
   if (!config_.hybrid) return;
   const auto& p = system_.particles();
   const auto n = static_cast<unsigned>(hybrid_.size());
-  auto h = out.initHybridParticles(1)[0];
-  auto pos = cosim::wire::view(h.initPositions(3 * n));
-  auto vel = cosim::wire::view(h.initVelocities(3 * n));
   // Verlet's next drift moves a particle by dt v_{n+1/2}, v_{n+1/2} = v_n +
   // dt/2 a_n with the forces of the state (Hartmann Eq. 44): sent as the
   // velocity, DEM's drift of the driven sphere ends where PD's will, and the
   // force it returns is the one at PD's next positions (pddem.capnp).
   const bool drift = !config_.staggered && !config_.quasiStatic && lastDt_ > 0.0;
   const auto& v = drift ? system_.driftVelocities(lastDt_) : p.velocity;
+  hybridX_.resize(3 * n);
+  hybridV_.resize(3 * n);
   for (unsigned q = 0; q < n; ++q) {
     const std::size_t i = hybrid_[q];
     for (int a = 0; a < 3; ++a) {
       const std::size_t k = 3 * i + static_cast<std::size_t>(a);
-      pos[3 * q + a] = p.reference[k] + p.displacement[k];
-      vel[3 * q + a] = v[k];
+      hybridX_[3 * q + a] = p.reference[k] + p.displacement[k];
+      hybridV_[3 * q + a] = v[k];
     }
   }
+  // The hybrid watch (hybrid_watch.hpp): the states DEM watches alone, where it may.
+  const std::vector<std::uint32_t>* part = serial > 0 && !withSet ? watch_.select(hybridX_, hybridV_) : nullptr;
+  auto h = out.initHybridParticles(1)[0];
+  if (serial > 0) {
+    h.setSerial(serial);
+    watch_.sent(part == nullptr, hybridX_, serial);
+  }
+  if (part) {
+    h.setPartial(true);
+    h.setWatchBasis(watch_.basis());
+    const auto m = static_cast<unsigned>(part->size());
+    auto idx = cosim::wire::view(h.initIndices(m));
+    auto pos = cosim::wire::view(h.initPositions(3 * m));
+    auto vel = cosim::wire::view(h.initVelocities(3 * m));
+    for (unsigned r = 0; r < m; ++r) {
+      const std::uint32_t q = (*part)[r];
+      idx[r] = q;
+      std::copy_n(hybridX_.begin() + 3 * q, 3, pos.begin() + 3 * r);
+      std::copy_n(hybridV_.begin() + 3 * q, 3, vel.begin() + 3 * r);
+    }
+    return;
+  }
+  auto pos = cosim::wire::view(h.initPositions(3 * n));
+  auto vel = cosim::wire::view(h.initVelocities(3 * n));
+  std::copy(hybridX_.begin(), hybridX_.end(), pos.begin());
+  std::copy(hybridV_.begin(), hybridV_.end(), vel.begin());
   if (!withSet) return;
   auto ids = cosim::wire::view(h.initIds(n));
   auto bodies = cosim::wire::view(h.initBodyIds(n));
@@ -284,6 +313,13 @@ void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet
   }
   auto hz = cosim::wire::view(h.initHorizons(static_cast<unsigned>(hybridHorizon_.size())));
   std::copy(hybridHorizon_.begin(), hybridHorizon_.end(), hz.begin());
+}
+
+void PdSolver::receiveWatch(cosim::proto::CouplingData::Reader data) {
+  if (!data.hasHybridForces()) return;
+  for (const auto hf : data.getHybridForces())
+    if (const std::string bad = watch_.receive(hf, hybrid_.size()); !bad.empty())
+      throw SolverError(Error::Code::BAD_INPUT, "hybridForces: " + bad);
 }
 
 void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::CouplingData::Builder out) {
@@ -306,7 +342,7 @@ void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::Coupl
   auto arrays = out.initArrays(count);
   unsigned k = 0;
   for (const auto& n : want) {
-    if (n == "hybrid") { writeHybrid(out, true); continue; }
+    if (n == "hybrid") { writeHybrid(out, true, 0); continue; }
     if (n == "position") {
       std::vector<double> x(p.reference.size());
       for (std::size_t q = 0; q < x.size(); ++q) x[q] = p.reference[q] + p.displacement[q];

@@ -31,7 +31,7 @@ class Particles {
   std::vector<double> radius, mass, invMass, inertia, invInertia;
   std::vector<double> weight;  // Arlequin weight w (Cheng Eq. 26); 1 outside coupling zones
   std::vector<std::uint16_t> material;
-  std::vector<std::uint8_t> driven;  // 1: kinematics set from outside, not integrated
+  std::vector<std::uint8_t> driven;  // 1: kinematics set from outside, not integrated; 2: also parked (hybrid_watch.hpp)
   std::vector<std::uint32_t> id;     // stable external id
 };
 

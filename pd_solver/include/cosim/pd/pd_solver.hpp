@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "cosim/util/energy_balance.hpp"
+#include "cosim/pd/hybrid_watch.hpp"
 #include "cosim/pd/scene.hpp"
 #include "cosim/pd/snapshot.hpp"
 #include "cosim/pd/system.hpp"
@@ -39,8 +40,12 @@ class PdSolver final : public cosim::wire::Solver {
                         std::vector<PdSystem::LinearisedCoupling>* linearised) const;
   /// Hybrid surface particles' states; with the set (ids, bodies, reference
   /// positions, radii, horizons) at setup and in fields, after an advance
-  /// only positions and velocities in the set's order (pddem.capnp).
-  void writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet) const;
+  /// only positions and velocities in the set's order (pddem.capnp). An
+  /// exchange's message (serial = exchange + 1; 0 for fields) counts for the
+  /// hybrid watch and holds the watched states alone where it may.
+  void writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet, std::uint64_t serial);
+  /// The hybrid watch fields of DEM's replies.
+  void receiveWatch(cosim::proto::CouplingData::Reader data);
   /// Whether an advance of `steps` Verlet steps applies the received coupling
   /// force from after its drift (one step, force held: the end-of-step force).
   bool endOfStepCoupling(std::uint32_t steps, bool interpolate) const;
@@ -54,6 +59,8 @@ class PdSolver final : public cosim::wire::Solver {
   PdSystem system_;
   std::vector<std::uint32_t> hybrid_;
   std::vector<double> hybridHorizon_;  // per body
+  HybridWatch watch_;
+  std::vector<double> hybridX_, hybridV_;  // every hybrid's position and drift velocity, 3 each
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::uint64_t advances_ = 0;
   double lastDt_ = 0.0;

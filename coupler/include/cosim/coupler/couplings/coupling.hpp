@@ -67,11 +67,23 @@ class InputAssembler {
     std::span<const std::uint32_t> ids, bodyIds;
     std::span<const double> referencePositions, positions, velocities, radii, horizons;
     bool wantStiffness = false;  // ask DEM for the contact stiffness with its forces
+    // The hybrid watch (pddem.capnp): PD's message serial and, for partial
+    // states, the set positions they are of and the full message they rest on.
+    std::uint64_t serial = 0, watchBasis = 0;
+    bool partial = false;
+    std::span<const std::uint32_t> indices = {};
+  };
+  struct StagedHybridWatch {  // the watch fields of a HybridForces (pddem.capnp)
+    bool watchSet = false, sendAll = false;
+    std::span<const std::uint32_t> watched = {};
+    double margin = 0.0, interval = 0.0;
+    std::uint64_t basis = 0;
   };
   struct StagedHybridForces {  // a HybridForces (pddem.capnp)
     std::span<const std::uint32_t> ids;
     std::span<const double> forces;  // 3 per id
     std::span<const double> positions = {}, stiffness = {};  // 3 and 6 per id, or empty (held forces)
+    StagedHybridWatch watch = {};
   };
   void stageArray(std::string name, std::uint32_t components, std::span<const double> values);
   void stageUnitCellJobs(StagedUnitCellJobs jobs) { jobs_.push_back(jobs); }

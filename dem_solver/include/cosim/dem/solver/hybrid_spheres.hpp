@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "cosim/dem/dem_system.hpp"
+#include "cosim/dem/solver/hybrid_watch.hpp"
 #include "pddem.capnp.h"
 
 namespace cosim::dem {
@@ -35,12 +36,16 @@ class HybridSpheres {
   /// std::invalid_argument naming the problem for malformed or changed sets.
   bool apply(proto::HybridParticles::Reader message, DemSystem& system, std::uint16_t material);
   std::size_t size() const { return ids_.size(); }
-  /// Starts a new interval of contact-force sums.
-  void beginInterval();
-  /// Adds this step's force on every hybrid sphere (and its position, when asked for).
-  void accumulate(const Particles& p);
+  /// Starts a new interval of contact-force sums, `interval` s long; after a
+  /// full state message lists the hybrid watch set (hybrid_watch.hpp).
+  void beginInterval(const DemSystem& system, double interval);
+  /// After a step of dt: adds its force on every hybrid sphere (and its
+  /// position, when asked for) and follows the watch.
+  void accumulate(const DemSystem& system, double dt);
   /// Ends the interval of `steps` sub-steps: the returned forces are the mean.
-  void endInterval(std::uint32_t steps);
+  /// Throws std::runtime_error where the watch's argument broke (hybrid_watch.hpp).
+  void endInterval(std::uint32_t steps, const DemSystem& system);
+  HybridWatch& watch() { return watch_; }
   /// The mean force of the last interval (before any: the current one); when
   /// the last HybridParticles asked for it (wantStiffness), also the mean
   /// position and the stiffness at the current state.
@@ -67,6 +72,12 @@ class HybridSpheres {
   std::vector<Vec3> positionSum_, meanPosition_;
   bool averaged_ = false;
   bool wantStiffness_ = false;  // the last HybridParticles asked for positions and stiffness
+  void applyPartial(proto::HybridParticles::Reader message, DemSystem& system);
+  HybridWatch watch_;
+  std::uint64_t fullSerial_ = 0;  // serial of the last full state message
+  bool pendingRebuild_ = false;   // a full state message came with this interval's request
+  bool stateArrived_ = false, partial_ = false, parked_ = false;
+  double lastStateTime_ = -1.0, cadence_ = 0.0;  // when the last state message came, and the time between two
 };
 
 }  // namespace cosim::dem

@@ -61,6 +61,7 @@ struct RunSettings {
   std::vector<ExportZone> zones;
   std::vector<DriveSpec> drives;     // params.drives, by zone
   std::uint16_t hybridMaterial = 0;  // material of hybrid PD particles (params.hybrid.material)
+  double hybridWatchMargin = -1.0;   // params.hybrid.watch_margin [m]: < 0 default, 0 off (hybrid_watch.hpp)
 };
 
 /// Finds the `solvers:` entry named instance in the scene text; throws SceneError.
