@@ -14,7 +14,7 @@ namespace cosim::dem {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
-constexpr std::uint32_t kVersion = 7;  // 7: driveWork
+constexpr std::uint32_t kVersion = 8;  // 7: driveWork; 8: excludedPairs
 
 class Writer {
  public:
@@ -217,6 +217,11 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
   w.vec(s.bonds.first); w.vec(s.bonds.second); w.vec(s.bonds.rest);
   w.vec(s.bonds.byParticleStart); w.vec(s.bonds.byParticle);
   w.vec(s.neighbors.exclStart); w.vec(s.neighbors.exclPartner);
+  {  // the pairs initialize() lists again (hybrid PD families arrive at an exchange, not with the scene)
+    std::vector<std::uint32_t> flat;
+    for (const auto& [a, b] : s.excludedPairs) flat.insert(flat.end(), {a, b});
+    w.vec(flat);
+  }
   w.vec(s.pairForce);
   w.pod(static_cast<std::uint64_t>(s.planes.size()));
   for (std::size_t k = 0; k < s.planes.size(); ++k) {
@@ -275,6 +280,14 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   r.vec(s.bonds.first); r.vec(s.bonds.second); r.vec(s.bonds.rest);
   r.vec(s.bonds.byParticleStart); r.vec(s.bonds.byParticle);
   r.vec(s.neighbors.exclStart); r.vec(s.neighbors.exclPartner);
+  {
+    std::vector<std::uint32_t> flat;
+    r.vec(flat);
+    require(flat.size() % 2 == 0, path, "excluded pair list of odd length");
+    requireBelow(flat, s.particles.size(), path, "excluded pair member");
+    s.excludedPairs.clear();
+    for (std::size_t k = 0; k + 1 < flat.size(); k += 2) s.excludedPairs.emplace_back(flat[k], flat[k + 1]);
+  }
   r.vec(s.pairForce);
   s.planes.resize(r.count(8, "planes"));
   s.planeShear.resize(s.planes.size());

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -576,7 +577,13 @@ void DemSolver::checkEnergyBalance(const Energies& e) const {
 std::uint64_t DemSolver::checkpoint(const std::string& path) {
   try {
     if (cells_) return cells_->checkpoint(path);
-    return writeCheckpoint(system_, path);
+    std::ofstream out(path, std::ios::binary);
+    if (!out) throw std::runtime_error(path + ": cannot open checkpoint for writing");
+    writeCheckpoint(system_, out, path);
+    hybrids_.save(out);  // which particles are PD's hybrids (they came with an exchange)
+    out.flush();
+    if (!out) throw std::runtime_error(path + ": write failed");
+    return static_cast<std::uint64_t>(out.tellp());
   } catch (const std::exception& e) {
     throw SolverError(Code::SOLVER_FAILURE, e.what());
   }
@@ -590,13 +597,18 @@ void DemSolver::restore(const std::string& path) {
       return;
     }
     DemSystem restored;
-    readCheckpoint(restored, path);
-    // Hybrid spheres keep the indices of this setup; the checkpoint must hold the same particles.
-    if (hybrids_.size() > 0 && restored.particles.size() != system_.particles.size())
-      throw std::runtime_error("checkpoint holds " + std::to_string(restored.particles.size()) +
-                               " particles, this setup with its hybrid PD particles " +
-                               std::to_string(system_.particles.size()));
-    restored.excludedPairs = system_.excludedPairs;
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path + ": cannot open checkpoint");
+    readCheckpoint(restored, in, path);
+    // The hybrid PD particles the checkpoint holds: the set PD sends again
+    // drives them (adding it again would double them).
+    HybridSpheres hybrids;
+    hybrids.watch().requestedMargin = settings_.hybridWatchMargin;
+    hybrids.load(in, path, restored.particles.size());
+    if (hybrids_.size() > 0 && hybrids.size() != hybrids_.size())
+      throw std::runtime_error("checkpoint holds " + std::to_string(hybrids.size()) +
+                               " hybrid PD particles, this setup " + std::to_string(hybrids_.size()));
+    hybrids_ = std::move(hybrids);
     system_ = std::move(restored);
     if (snapshots_) snapshots_->resumeAt(system_.step);
   } catch (const std::exception& e) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cosim/dem/solver/scene_params.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::dem {
@@ -169,6 +170,50 @@ void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& syste
   mean_.assign(ids_.size(), {});
   positionSum_.assign(ids_.size(), {});
   meanPosition_.assign(ids_.size(), {});
+}
+
+namespace {
+constexpr std::uint64_t kHybridMagic = 0x3142594848534f43;  // "COSHHYB1"
+}  // namespace
+
+void HybridSpheres::save(std::ostream& out) const {
+  if (ids_.empty()) return;
+  util::BinaryWriter w(out);
+  w.pod(kHybridMagic);
+  w.vec(ids_), w.vec(index_);
+  w.pod(fullSerial_);
+  for (const bool b : {pendingRebuild_, stateArrived_, partial_, parked_}) w.pod(static_cast<std::uint8_t>(b));
+  w.pod(lastStateTime_), w.pod(cadence_);
+  watch_.save(w);
+}
+
+void HybridSpheres::load(std::istream& in, const std::string& path, std::size_t particles) {
+  std::uint64_t magic = 0;
+  if (!in.read(reinterpret_cast<char*>(&magic), sizeof magic)) return;  // the system alone: no hybrids
+  util::BinaryReader r(in, path);
+  if (magic != kHybridMagic) r.fail("hybrid particles", "not a hybrid particle record after the DEM system");
+  auto ids = r.vec<std::uint32_t>("hybrid particle ids");
+  auto index = r.vec<std::uint32_t>("hybrid particle indices");
+  if (index.size() != ids.size()) r.fail("hybrid particles", "ids and indices differ in number");
+  slot_.clear();
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    if (index[k] >= particles || !slot_.emplace(ids[k], static_cast<std::uint32_t>(k)).second)
+      r.fail("hybrid particles", "id " + std::to_string(ids[k]) + " at index " + std::to_string(index[k]) +
+                                     " repeats or lies beyond the " + std::to_string(particles) + " particles");
+  fullSerial_ = r.pod<std::uint64_t>("hybrid particles");
+  for (bool* b : {&pendingRebuild_, &stateArrived_, &partial_, &parked_})
+    *b = r.pod<std::uint8_t>("hybrid particles") != 0;
+  lastStateTime_ = r.pod<double>("hybrid particles");
+  cadence_ = r.pod<double>("hybrid particles");
+  watch_.load(r, particles, ids.size());
+  const std::size_t n = ids.size();
+  ids_ = std::move(ids);
+  index_ = std::move(index);
+  impulse_.assign(n, {});
+  mean_.assign(n, {});
+  positionSum_.assign(n, {});
+  meanPosition_.assign(n, {});
+  averaged_ = false;
 }
 
 void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance) const {

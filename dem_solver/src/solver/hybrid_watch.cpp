@@ -37,14 +37,14 @@ void HybridWatch::rebuild(const DemSystem& s, std::span<const std::uint32_t> hyb
     if (w) list_.push_back(k);
   }
   // Every particle that is not a hybrid: free ones and those a scene drives.
-  ownRef_ = p.x;
   std::vector<std::uint8_t> hybrid(p.size(), 0);
   for (const std::uint32_t i : hybridIndex) hybrid[i] = 1;
   own_.clear();
+  ownRef_.clear();
   for (std::uint32_t i = 0; i < p.size(); ++i)
-    if (!hybrid[i]) own_.push_back(i);
+    if (!hybrid[i]) own_.push_back(i), ownRef_.push_back(p.x[i]);
   planeRef_.clear();
-  for (const PlaneWall& plane : s.planes) planeRef_.emplace_back(plane.point, plane.normal);
+  for (const PlaneWall& plane : s.planes) planeRef_.push_back({plane.point, plane.normal});
   basis_ = serial;
   interval_ = interval;
   built_ = rebuiltNow_ = true;
@@ -75,16 +75,15 @@ void HybridWatch::beginInterval(const DemSystem& s, bool partial, bool stateArri
   intervalStart_.resize(own_.size());
   for (std::size_t q = 0; q < own_.size(); ++q) intervalStart_[q] = p.x[own_[q]];
   planeStart_.clear();
-  for (const PlaneWall& plane : s.planes) planeStart_.emplace_back(plane.point, plane.normal);
+  for (const PlaneWall& plane : s.planes) planeStart_.push_back({plane.point, plane.normal});
 }
 
 namespace {
 
-/// How far a plane moved along its normal from (point, normal); infinite once it turned.
-double planeMove(const PlaneWall& w, const std::pair<Vec3, Vec3>& from) {
-  const Vec3& n = from.second;
+/// How far a plane moved along its normal from `point` (normal n); infinite once it turned.
+double planeMove(const PlaneWall& w, const Vec3& point, const Vec3& n) {
   if (w.normal.x != n.x || w.normal.y != n.y || w.normal.z != n.z) return INFINITY;
-  return std::fabs(dot(w.point - from.first, n));
+  return std::fabs(dot(w.point - point, n));
 }
 
 }  // namespace
@@ -92,15 +91,15 @@ double planeMove(const PlaneWall& w, const std::pair<Vec3, Vec3>& from) {
 double HybridWatch::farthest(const DemSystem& s, std::string* who) const {
   double d = 0.0;
   const Particles& p = s.particles;
-  for (const std::uint32_t i : own_) {
-    const double di = norm(p.x[i] - ownRef_[i]);
+  for (std::size_t q = 0; q < own_.size(); ++q) {
+    const double di = norm(p.x[own_[q]] - ownRef_[q]);
     if (di > d) {
       d = di;
-      if (who) *who = "particle " + std::to_string(p.id[i]);
+      if (who) *who = "particle " + std::to_string(p.id[own_[q]]);
     }
   }
   for (std::size_t w = 0; w < s.planes.size() && w < planeRef_.size(); ++w) {
-    const double dw = planeMove(s.planes[w], planeRef_[w]);
+    const double dw = planeMove(s.planes[w], planeRef_[w].point, planeRef_[w].normal);
     if (dw > d) {
       d = dw;
       if (who) *who = "wall '" + s.planes[w].name + "'";
@@ -142,8 +141,35 @@ void HybridWatch::endInterval(const DemSystem& s) {
   for (std::size_t q = 0; q < own_.size() && q < intervalStart_.size(); ++q)
     step = std::max(step, norm(p.x[own_[q]] - intervalStart_[q]));
   for (std::size_t w = 0; w < s.planes.size() && w < planeStart_.size(); ++w)
-    step = std::max(step, planeMove(s.planes[w], planeStart_[w]));
+    step = std::max(step, planeMove(s.planes[w], planeStart_[w].point, planeStart_[w].normal));
   sendAll_ = farthest_ + 2.0 * step >= half;
+}
+
+void HybridWatch::save(util::BinaryWriter& w) const {
+  w.vec(watched_), w.vec(list_), w.vec(own_), w.vec(ownRef_), w.vec(intervalStart_);
+  w.vec(planeRef_), w.vec(planeStart_);
+  w.pod(basis_);
+  for (const bool b : {built_, rebuiltNow_, fresh_, partial_, sendAll_}) w.pod(static_cast<std::uint8_t>(b));
+  for (const double x : {margin_, interval_, reach_, farthest_, sinceState_}) w.pod(x);
+}
+
+void HybridWatch::load(util::BinaryReader& r, std::size_t particles, std::size_t hybrids) {
+  watched_ = r.vec<std::uint8_t>("hybrid watch");
+  list_ = r.vec<std::uint32_t>("hybrid watch");
+  own_ = r.vec<std::uint32_t>("hybrid watch");
+  ownRef_ = r.vec<Vec3>("hybrid watch");
+  intervalStart_ = r.vec<Vec3>("hybrid watch");
+  planeRef_ = r.vec<PlanePose>("hybrid watch");
+  planeStart_ = r.vec<PlanePose>("hybrid watch");
+  basis_ = r.pod<std::uint64_t>("hybrid watch");
+  for (bool* b : {&built_, &rebuiltNow_, &fresh_, &partial_, &sendAll_}) *b = r.pod<std::uint8_t>("hybrid watch") != 0;
+  for (double* x : {&margin_, &interval_, &reach_, &farthest_, &sinceState_}) *x = r.pod<double>("hybrid watch");
+  if (own_.size() != ownRef_.size() || intervalStart_.size() > own_.size() || watched_.size() > hybrids)
+    r.fail("hybrid watch", "lists of inconsistent sizes");
+  for (const std::uint32_t i : own_)
+    if (i >= particles) r.fail("hybrid watch", "particle index " + std::to_string(i) + " beyond the system");
+  for (const std::uint32_t k : list_)
+    if (k >= watched_.size()) r.fail("hybrid watch", "set position " + std::to_string(k) + " beyond the set");
 }
 
 void HybridWatch::fill(proto::HybridForces::Builder out) const {

@@ -45,4 +45,27 @@ void HybridWatch::sent(bool full, std::span<const double> x, std::uint64_t seria
   adopted_ = false;  // a new set comes for this message
 }
 
+void HybridWatch::save(util::BinaryWriter& w) const {
+  w.pod(lastFull_);
+  w.vec(fullPositions_);
+  w.vec(watched_);
+  w.pod(margin_), w.pod(interval_);
+  w.pod(static_cast<std::uint8_t>(adopted_)), w.pod(static_cast<std::uint8_t>(sendAll_));
+}
+
+void HybridWatch::load(util::BinaryReader& r, std::size_t hybrids) {
+  lastFull_ = r.pod<std::uint64_t>("hybrid watch");
+  fullPositions_ = r.vec<double>("hybrid watch");
+  watched_ = r.vec<std::uint32_t>("hybrid watch");
+  margin_ = r.pod<double>("hybrid watch");
+  interval_ = r.pod<double>("hybrid watch");
+  adopted_ = r.pod<std::uint8_t>("hybrid watch") != 0;
+  sendAll_ = r.pod<std::uint8_t>("hybrid watch") != 0;
+  if (!fullPositions_.empty() && fullPositions_.size() != 3 * hybrids)
+    r.fail("hybrid watch", std::to_string(fullPositions_.size()) + " positions for " + std::to_string(hybrids) +
+                               " hybrid particles");
+  for (const std::uint32_t k : watched_)
+    if (k >= hybrids) r.fail("hybrid watch", "watched set position " + std::to_string(k) + " beyond the set");
+}
+
 }  // namespace cosim::pd

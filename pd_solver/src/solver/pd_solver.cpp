@@ -11,6 +11,7 @@
 
 #include "cosim/pd/hybrid.hpp"
 #include "cosim/pd/hybrid_watch.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/pd/pd_solver.hpp"
 #include "cosim/wire/arrays.hpp"
 
@@ -386,6 +387,8 @@ std::uint64_t PdSolver::checkpoint(const std::string& path) {
   put(out, system_.previousExternalForce());
   put(out, system_.couplingForce());
   for (const auto& b : system_.bodies()) put(out, b.bonds.broken);
+  cosim::util::BinaryWriter w(out);
+  watch_.save(w);  // the hybrid watch: a restored run sends what the original did
   out.flush();
   if (!out) throw SolverError(Error::Code::SOLVER_FAILURE, path + ": checkpoint write failed");
   return static_cast<std::uint64_t>(out.tellp());
@@ -418,6 +421,16 @@ void PdSolver::restore(const std::string& path) {
     broken.push_back(b.bonds.broken);
     get(in, broken.back(), path, "bond flags");
   }
+  HybridWatch watch;
+  if (in.peek() != std::ifstream::traits_type::eof()) {
+    cosim::util::BinaryReader r(in, path);
+    try {
+      watch.load(r, hybrid_.size());
+    } catch (const std::runtime_error& e) {
+      throw SolverError(Error::Code::BAD_INPUT, e.what());
+    }
+  }
+  watch_ = std::move(watch);
   p.displacement = std::move(u);
   p.velocity = std::move(v);
   p.internalForce = std::move(fi);

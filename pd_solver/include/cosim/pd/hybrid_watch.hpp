@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/util/binary_record.hpp"
 #include "pddem.capnp.h"
 
 namespace cosim::pd {
@@ -27,6 +28,10 @@ class HybridWatch {
   /// the basis of the next watch set.
   void sent(bool full, std::span<const double> x, std::uint64_t serial);
   std::uint64_t basis() const { return lastFull_; }
+  /// The whole state, for a checkpoint: a restored run continues bit for bit.
+  void save(util::BinaryWriter& w) const;
+  /// Throws std::runtime_error naming the record where it does not fit `hybrids` particles.
+  void load(util::BinaryReader& r, std::size_t hybrids);
 
  private:
   std::uint64_t lastFull_ = 0;

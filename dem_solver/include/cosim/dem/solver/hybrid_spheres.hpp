@@ -12,6 +12,9 @@
 // with the mean position it was felt at and the contact stiffness K = -df/dx
 // (so PD can follow the force over its own sub-steps, coupling `forces: linearised`).
 #include <cstdint>
+#include <istream>
+#include <ostream>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -46,6 +49,12 @@ class HybridSpheres {
   /// Throws std::runtime_error where the watch's argument broke (hybrid_watch.hpp).
   void endInterval(std::uint32_t steps, const DemSystem& system);
   HybridWatch& watch() { return watch_; }
+  /// The set's PD ids and DEM indices, appended to a checkpoint: a restored
+  /// DEM drives the hybrid particles it holds instead of adding the set again.
+  void save(std::ostream& out) const;
+  /// Reads what save wrote; nothing left in the stream means no hybrids.
+  /// Throws std::runtime_error naming `path` on a bad record.
+  void load(std::istream& in, const std::string& path, std::size_t particles);
   /// The mean force of the last interval (before any: the current one); when
   /// the last HybridParticles asked for it (wantStiffness), also the mean
   /// position and the stiffness at the current state.

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "cosim/dem/dem_system.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "pddem.capnp.h"
 
 namespace cosim::dem {
@@ -57,16 +58,22 @@ class HybridWatch {
   /// The watch fields of DEM's reply (a new watch set once, sendAll always).
   void fill(proto::HybridForces::Builder out) const;
   double margin() const { return margin_; }
+  /// The whole state, for a checkpoint: a restored run continues bit for bit.
+  void save(util::BinaryWriter& w) const;
+  void load(util::BinaryReader& r, std::size_t particles, std::size_t hybrids);
 
  private:
   /// Largest distance of an own particle (not a hybrid) or a plane from its reference; `who` names it.
   double farthest(const DemSystem& s, std::string* who) const;
   std::vector<std::uint8_t> watched_;  // per set position
   std::vector<std::uint32_t> list_;    // watched set positions, ascending
+  struct PlanePose {
+    Vec3 point, normal;
+  };
   std::vector<std::uint32_t> own_;     // DEM's own particles (every one but the hybrids)
-  std::vector<Vec3> ownRef_;           // every particle at the rebuild (hybrids' unused)
+  std::vector<Vec3> ownRef_;           // own particles at the rebuild
   std::vector<Vec3> intervalStart_;    // own particles at the interval's start
-  std::vector<std::pair<Vec3, Vec3>> planeRef_, planeStart_;  // point, normal
+  std::vector<PlanePose> planeRef_, planeStart_;
   std::uint64_t basis_ = 0;
   bool built_ = false;       // a watch set is listed
   bool rebuiltNow_ = false;  // listed for this interval's message: it goes out with the reply
