@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "cosim/util/binary_record.hpp"
 #include "cosim/util/stream_size.hpp"
 
 namespace cosim::dem {
@@ -16,23 +17,13 @@ namespace {
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
 constexpr std::uint32_t kVersion = 8;  // 7: driveWork; 8: excludedPairs
 
-class Writer {
+// pod and vec as util::BinaryWriter; strings and the final check added.
+class Writer : public util::BinaryWriter {
  public:
-  Writer(std::ostream& out, const std::string& path) : out_(out), path_(path) {}
-  template <class T>
-  void pod(const T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    out_.write(reinterpret_cast<const char*>(&v), sizeof(T));
-  }
-  template <class T>
-  void vec(const std::vector<T>& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    pod(static_cast<std::uint64_t>(v.size()));
-    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
-  }
+  Writer(std::ostream& out, const std::string& path) : util::BinaryWriter(out), out_(out), path_(path) {}
   void str(const std::string& s) {
     pod(static_cast<std::uint64_t>(s.size()));
-    out_.write(s.data(), static_cast<std::streamsize>(s.size()));
+    bytes(s.data(), s.size());
   }
   std::uint64_t finish() {
     out_.flush();

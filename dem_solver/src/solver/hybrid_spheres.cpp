@@ -166,10 +166,15 @@ void HybridSpheres::add(proto::HybridParticles::Reader message, DemSystem& syste
     index_.push_back(static_cast<std::uint32_t>(i));
   }
   for (const auto& [a, b] : pairs) system.excludedPairs.emplace_back(first + a, first + b);
+  sizeSums();
+}
+
+void HybridSpheres::sizeSums() {
   impulse_.assign(ids_.size(), {});
   mean_.assign(ids_.size(), {});
   positionSum_.assign(ids_.size(), {});
   meanPosition_.assign(ids_.size(), {});
+  averaged_ = false;
 }
 
 namespace {
@@ -206,14 +211,9 @@ void HybridSpheres::load(std::istream& in, const std::string& path, std::size_t 
   lastStateTime_ = r.pod<double>("hybrid particles");
   cadence_ = r.pod<double>("hybrid particles");
   watch_.load(r, particles, ids.size());
-  const std::size_t n = ids.size();
   ids_ = std::move(ids);
   index_ = std::move(index);
-  impulse_.assign(n, {});
-  mean_.assign(n, {});
-  positionSum_.assign(n, {});
-  meanPosition_.assign(n, {});
-  averaged_ = false;
+  sizeSums();
 }
 
 void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance) const {

@@ -13,10 +13,10 @@ namespace cosim::dem {
 void HybridWatch::rebuild(const DemSystem& s, std::span<const std::uint32_t> hybridIndex, std::uint64_t serial,
                           double interval) {
   margin_ = requestedMargin < 0.0 ? kWatchMarginPerSkin * s.neighbors.skin : requestedMargin;
-  reach_ = s.neighbors.skin + margin_;
+  const double reach = s.neighbors.skin + margin_;
   // Every pair closer than r_i + r_j + skin + m, with the contact list's exclusions (PD families, bonds).
   NeighborList near;
-  near.skin = reach_;
+  near.skin = reach;
   near.exclStart = s.neighbors.exclStart;
   near.exclPartner = s.neighbors.exclPartner;
   near.build(s.particles, nullptr);
@@ -29,7 +29,7 @@ void HybridWatch::rebuild(const DemSystem& s, std::span<const std::uint32_t> hyb
   for (std::uint32_t k = 0; k < hybridIndex.size(); ++k) {
     const std::uint32_t i = hybridIndex[k];
     bool w = paired[i] != 0;
-    for (const PlaneWall& plane : s.planes) w = w || plane.distance(p.x[i]) < p.radius[i] + reach_;
+    for (const PlaneWall& plane : s.planes) w = w || plane.distance(p.x[i]) < p.radius[i] + reach;
     // DEM drifts the state over its interval before parking it: that drift
     // must stay well inside the m/2 the argument allows.
     w = w || interval * norm(p.v[i]) >= 0.25 * margin_;
@@ -150,7 +150,7 @@ void HybridWatch::save(util::BinaryWriter& w) const {
   w.vec(planeRef_), w.vec(planeStart_);
   w.pod(basis_);
   for (const bool b : {built_, rebuiltNow_, fresh_, partial_, sendAll_}) w.pod(static_cast<std::uint8_t>(b));
-  for (const double x : {margin_, interval_, reach_, farthest_, sinceState_}) w.pod(x);
+  for (const double x : {margin_, interval_, farthest_, sinceState_}) w.pod(x);
 }
 
 void HybridWatch::load(util::BinaryReader& r, std::size_t particles, std::size_t hybrids) {
@@ -163,7 +163,7 @@ void HybridWatch::load(util::BinaryReader& r, std::size_t particles, std::size_t
   planeStart_ = r.vec<PlanePose>("hybrid watch");
   basis_ = r.pod<std::uint64_t>("hybrid watch");
   for (bool* b : {&built_, &rebuiltNow_, &fresh_, &partial_, &sendAll_}) *b = r.pod<std::uint8_t>("hybrid watch") != 0;
-  for (double* x : {&margin_, &interval_, &reach_, &farthest_, &sinceState_}) *x = r.pod<double>("hybrid watch");
+  for (double* x : {&margin_, &interval_, &farthest_, &sinceState_}) *x = r.pod<double>("hybrid watch");
   if (own_.size() != ownRef_.size() || intervalStart_.size() > own_.size() || watched_.size() > hybrids)
     r.fail("hybrid watch", "lists of inconsistent sizes");
   for (const std::uint32_t i : own_)

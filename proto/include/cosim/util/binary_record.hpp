@@ -3,6 +3,7 @@
 // of them (a count, then the items), read back with every count bounded by
 // what the file still holds, so a corrupt count is refused before it
 // allocates. Errors name the file and the record.
+#include <cstddef>
 #include <cstdint>
 #include <istream>
 #include <ostream>
@@ -21,13 +22,16 @@ class BinaryWriter {
   template <class T>
   void pod(const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
-    out_.write(reinterpret_cast<const char*>(&v), sizeof(T));
+    bytes(&v, sizeof(T));
   }
   template <class T>
   void vec(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     pod(static_cast<std::uint64_t>(v.size()));
-    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+    bytes(v.data(), v.size() * sizeof(T));
+  }
+  void bytes(const void* data, std::size_t n) {
+    out_.write(static_cast<const char*>(data), static_cast<std::streamsize>(n));
   }
 
  private:

@@ -82,6 +82,8 @@ class HybridSpheres {
   bool averaged_ = false;
   bool wantStiffness_ = false;  // the last HybridParticles asked for positions and stiffness
   void applyPartial(proto::HybridParticles::Reader message, DemSystem& system);
+  /// The interval sums, one per hybrid, cleared.
+  void sizeSums();
   HybridWatch watch_;
   std::uint64_t fullSerial_ = 0;  // serial of the last full state message
   bool pendingRebuild_ = false;   // a full state message came with this interval's request

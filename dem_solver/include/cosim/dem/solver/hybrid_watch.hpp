@@ -57,7 +57,6 @@ class HybridWatch {
   void endInterval(const DemSystem& s);
   /// The watch fields of DEM's reply (a new watch set once, sendAll always).
   void fill(proto::HybridForces::Builder out) const;
-  double margin() const { return margin_; }
   /// The whole state, for a checkpoint: a restored run continues bit for bit.
   void save(util::BinaryWriter& w) const;
   void load(util::BinaryReader& r, std::size_t particles, std::size_t hybrids);
@@ -80,7 +79,7 @@ class HybridWatch {
   bool fresh_ = false;       // the reply carries the watch set
   bool partial_ = false;     // this interval's states came without the unwatched ones
   bool sendAll_ = true;
-  double margin_ = 0.0, interval_ = 0.0, reach_ = 0.0;
+  double margin_ = 0.0, interval_ = 0.0;
   double farthest_ = 0.0;    // largest distance of an own particle or plane from its reference so far
   double sinceState_ = 0.0;  // time the hybrid states have drifted since their message
 };
