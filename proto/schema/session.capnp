@@ -9,7 +9,7 @@ $Cxx.namespace("cosim::proto");
 using Data = import "data.capnp";
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 1;  # 1: Advance.wantCriticalDt
+const protocolMinor :UInt16 = 2;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt
 
 struct Envelope {
   seq @0 :UInt64;          # sender's sequence number (requests and replies)
@@ -93,6 +93,9 @@ struct Advanced {
   computeStartedAt @6 :Float64; # the solver's monotonic clock [s] when the compute began (0: not
                                 # reported); on one host it is the coupler's clock too, which lets the
                                 # run report tell where solvers computed at once (parallel rounds)
+  aheadSeconds @7 :Float64;     # wall time the solver worked ahead after its previous advance's
+                                # reply (Solver::workAhead): compute of this request done early
+  aheadStartedAt @8 :Float64;   # the solver's monotonic clock [s] when that work began (0: none)
 }
 
 struct FieldsRequest {

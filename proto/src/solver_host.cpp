@@ -66,6 +66,7 @@ struct SolverHost::Impl {
   std::uint64_t outSeq = 0;
   std::uint64_t lastInSeq = 0;
   bool setUp = false;
+  double aheadSeconds = 0.0, aheadStartedAt = 0.0;  // the last workAhead, reported with the next advance
 
   Impl(Solver& s, HostOptions o)
       : solver(s), options(std::move(o)), data(options.endpoint, options.instance, options.serverKey) {}
@@ -289,7 +290,26 @@ struct SolverHost::Impl {
     // Energies and the critical step are the solver's work too (sweeps over its model), not the wire's.
     done.setComputeSeconds(monotonicSeconds() - start);
     done.setComputeStartedAt(start);
+    done.setAheadSeconds(aheadSeconds);
+    done.setAheadStartedAt(aheadStartedAt);
     data.send(m);
+    workAhead();
+  }
+
+  /// The solver's work ahead (Solver::workAhead), timed for the next reply.
+  /// Its reply is out: a failure here cannot be answered, so it is logged,
+  /// and the next request meets the solver's state as it was.
+  void workAhead() {
+    aheadSeconds = aheadStartedAt = 0.0;
+    const double start = monotonicSeconds();
+    try {
+      if (!solver.workAhead()) return;
+    } catch (const std::exception& e) {
+      log::warn(std::string("work ahead of the next advance failed: ") + e.what());
+      return;
+    }
+    aheadStartedAt = start;
+    aheadSeconds = monotonicSeconds() - start;
   }
 
   void onFields(std::uint64_t seq, proto::FieldsRequest::Reader f) {

@@ -46,6 +46,30 @@ TEST(RunReport, SolversTakingTurnsOnOneCpuLeaveOnlyTheGaps) {
   EXPECT_NEAR(roundCommunicationSeconds(packed), 0.22, 1e-12);
 }
 
+// PD works ahead after its reply (Solver::workAhead), over DEM's round and
+// into its own next one, and reports it with that next reply: the ledger
+// settles each round once the next is in, so the work ahead covers DEM's
+// round trip and the wait of PD's next request, and only the gaps remain.
+TEST(RunReport, WorkAheadCountsAsComputeInTheRoundsItOverlaps) {
+  const RoundTrip pd1{0.0, 0.3, 0.2, 0.05};
+  const RoundTrip dem{0.31, 0.6, 0.2, 0.35};
+  const RoundTrip pd2{0.61, 1.0, 0.05, 0.93, 0.6, 0.3};  // worked ahead over [0.3, 0.9]
+  CommunicationLedger ledger;
+  ledger.add({pd1});
+  ledger.add({dem});
+  ledger.add({pd2});
+  EXPECT_NEAR(ledger.close(), 0.1 + 0.0 + (0.39 - 0.29 - 0.05), 1e-12);
+  EXPECT_NEAR(ledger.close(), 0.15, 1e-12);  // nothing open: closing again adds nothing
+  EXPECT_NEAR(aheadInsideRoundTrip(pd2), 0.29, 1e-12);
+  EXPECT_EQ(aheadInsideRoundTrip(dem), 0.0);
+  // Work ahead on another host's clock cannot be placed: the rounds as before.
+  CommunicationLedger elsewhere;
+  elsewhere.add({pd1});
+  elsewhere.add({dem});
+  elsewhere.add({{0.61, 1.0, 0.05, 0.93, 0.6, 777.0}});
+  EXPECT_NEAR(elsewhere.close(), 0.1 + 0.09 + 0.34, 1e-12);
+}
+
 TEST(RunReport, EnergiesKeepTheirSignificantDigitsAtAnyScale) {
   RunReport r;
   r.finalEnergies = {{"pile.kinetic", 4.104145e-6}, {"pack.strain", 12345.678901}, {"bad.potential", 2e305}};

@@ -410,6 +410,96 @@ TEST(PdSolverAdvance, HybridStatesFollowTheWatchSet) {
   }
 }
 
+// Solver::workAhead: after a one-step advance PD computes the next step's
+// half kick, drift and bond forces while DEM evaluates the contact force.
+// Every reply, the state, the energies, a fields reply and a checkpoint are
+// bitwise those of a run that does not work ahead, also where the next
+// request is not the step begun (another dt, two sub-steps, fields, a
+// checkpoint: the state goes back first). A body whose bonds may break, or
+// `work_ahead: false`, does not work ahead.
+TEST(PdSolverAdvance, WorkAheadIsBitwiseTheStepItBegan) {
+  const std::string yaml = scene("", "          velocity: [0.01, 0, -0.02]\n");
+  Fixture ahead(yaml), plain(yaml);
+  const auto set = ahead.out.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+  const std::uint32_t a = set.getIds()[3], b = set.getIds()[17];
+  const double dt = 0.5 * ahead.solver.criticalDt();
+  auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  };
+  capnp::MallocMessageBuilder outA, outP;
+  int worked = 0;
+  auto request = [&](int k, std::uint32_t steps, double step) {
+    capnp::MallocMessageBuilder in;
+    auto d = in.initRoot<CouplingData>();
+    auto hf = d.initHybridForces(1)[0];
+    auto ids = hf.initIds(2);
+    ids.set(0, a);
+    ids.set(1, b);
+    auto f = hf.initForces(6);
+    for (unsigned q = 0; q < 6; ++q) f.set(q, std::sin(0.7 * k + q) * (q % 3 == 2 ? 40.0 : 10.0));
+    cosim::wire::AdvanceRequest req;
+    req.steps = steps;
+    req.dt = step;
+    req.exchange = static_cast<std::uint64_t>(k);
+    req.inputs = d.asReader();
+    ahead.solver.advance(req, outA.initRoot<CouplingData>());
+    plain.solver.advance(req, outP.initRoot<CouplingData>());
+    const auto ha = outA.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+    const auto hp = outP.getRoot<CouplingData>().asReader().getHybridParticles()[0];
+    ASSERT_EQ(ha.getPositions().size(), hp.getPositions().size());
+    for (unsigned q = 0; q < ha.getPositions().size(); ++q) {
+      ASSERT_EQ(ha.getPositions()[q], hp.getPositions()[q]) << "request " << k << ", value " << q;
+      ASSERT_EQ(ha.getVelocities()[q], hp.getVelocities()[q]) << "request " << k << ", value " << q;
+    }
+    EXPECT_EQ(ahead.solver.energies(), plain.solver.energies()) << "request " << k;
+    const auto& pa = ahead.solver.system().particles();
+    const auto& pp = plain.solver.system().particles();
+    EXPECT_TRUE(same(pa.displacement, pp.displacement) && same(pa.velocity, pp.velocity) &&
+                same(pa.internalForce, pp.internalForce) && same(pa.externalForce, pp.externalForce))
+        << "request " << k;
+    worked += ahead.solver.workAhead() ? 1 : 0;
+  };
+  int k = 0;
+  for (; k < 6; ++k) request(k, 1, dt);
+  EXPECT_EQ(worked, 6);
+  EXPECT_THROW(ahead.solver.energies(), cosim::wire::SolverError);  // asked with the advance, not between
+  request(k++, 1, 0.5 * dt);  // another step: taken back, then stepped
+  request(k++, 2, dt);        // two sub-steps, held force: the first half kick has it
+  EXPECT_EQ(worked, 7);       // none after the two sub-steps
+  request(k++, 1, dt);
+  capnp::MallocMessageBuilder fieldsA, fieldsP;
+  ahead.solver.fields({"position", "velocity", "force"}, fieldsA.initRoot<CouplingData>());
+  plain.solver.fields({"position", "velocity", "force"}, fieldsP.initRoot<CouplingData>());
+  const auto fa = fieldsA.getRoot<CouplingData>().asReader().getArrays();
+  const auto fp = fieldsP.getRoot<CouplingData>().asReader().getArrays();
+  for (unsigned q = 0; q < fa.size(); ++q) {
+    const auto va = fa[q].getValues(), vp = fp[q].getValues();
+    for (unsigned r = 0; r < va.size(); ++r) ASSERT_EQ(va[r], vp[r]) << fa[q].getName().cStr() << " " << r;
+  }
+  for (int n = 0; n < 3; ++n) request(k++, 1, dt);
+  const auto dir = std::filesystem::temp_directory_path() / "pd_solver_ahead";
+  std::filesystem::create_directories(dir);
+  ahead.solver.checkpoint((dir / "ahead.bin").string());
+  plain.solver.checkpoint((dir / "plain.bin").string());
+  auto bytes = [](const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir / "ahead.bin"), bytes(dir / "plain.bin"));
+  for (int n = 0; n < 3; ++n) request(k++, 1, dt);
+  EXPECT_EQ(worked, 14);
+  const auto pmb = std::string(yaml).replace(yaml.find("model: lps"), 10, "model: pmb");
+  Fixture intact(pmb);
+  advance(intact.solver, 1, dt, a, 1.0, 0.0, false);
+  EXPECT_TRUE(intact.solver.workAhead());
+  Fixture breaking(pmb + "          critical_stretch: 0.01\n");
+  advance(breaking.solver, 1, dt, a, 1.0, 0.0, false);
+  EXPECT_FALSE(breaking.solver.workAhead());
+  Fixture off(scene("      work_ahead: false\n"));
+  advance(off.solver, 1, dt, a, 1.0, 0.0, false);
+  EXPECT_FALSE(off.solver.workAhead());
+}
+
 TEST(PdSolverAdvance, CriticalStepRefusedUnlessForced) {
   Fixture f(scene());
   const double crit = f.solver.criticalDt();

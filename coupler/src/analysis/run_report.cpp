@@ -8,7 +8,8 @@
 
 namespace cosim::coupler {
 
-double roundCommunicationSeconds(const std::vector<RoundTrip>& round) {
+double roundCommunicationSeconds(const std::vector<RoundTrip>& round,
+                                 const std::vector<std::pair<double, double>>& alsoComputing) {
   if (round.empty()) return 0.0;
   double first = round.front().sentAt, last = round.front().receivedAt;
   std::vector<std::pair<double, double>> compute;
@@ -20,6 +21,8 @@ double roundCommunicationSeconds(const std::vector<RoundTrip>& round) {
     const double end = sameClock ? r.computeStartedAt + r.computeS : r.receivedAt;
     compute.emplace_back(std::max(r.sentAt, end - r.computeS), end);
   }
+  for (const auto& [a, b] : alsoComputing)
+    if (std::min(b, last) > std::max(a, first)) compute.emplace_back(std::max(a, first), std::min(b, last));
   std::sort(compute.begin(), compute.end());
   double covered = 0.0, reach = first;
   for (const auto& [a, b] : compute) {
@@ -27,6 +30,40 @@ double roundCommunicationSeconds(const std::vector<RoundTrip>& round) {
     reach = std::max(reach, b);
   }
   return std::max(0.0, last - first - covered);
+}
+
+namespace {
+/// A trip's work ahead as an interval on the coupler's clock; none where it
+/// is not on it (another host) or there was none.
+std::optional<std::pair<double, double>> aheadInterval(const RoundTrip& r) {
+  if (!(r.aheadS > 0.0) || !(r.aheadStartedAt > 0.0) || r.aheadStartedAt + r.aheadS > r.receivedAt) return std::nullopt;
+  return std::make_pair(r.aheadStartedAt, r.aheadStartedAt + r.aheadS);
+}
+}  // namespace
+
+double aheadInsideRoundTrip(const RoundTrip& trip) {
+  const auto ahead = aheadInterval(trip);
+  return ahead ? std::max(0.0, std::min(ahead->second, trip.receivedAt) - std::max(ahead->first, trip.sentAt)) : 0.0;
+}
+
+void CommunicationLedger::add(std::vector<RoundTrip> round) {
+  std::vector<std::pair<double, double>> ahead;
+  for (const auto& r : round)
+    if (const auto a = aheadInterval(r)) ahead.push_back(*a);
+  if (!open_.empty()) {
+    auto during = openAhead_;
+    during.insert(during.end(), ahead.begin(), ahead.end());
+    seconds_ += roundCommunicationSeconds(open_, during);
+  }
+  open_ = std::move(round);
+  openAhead_ = std::move(ahead);
+}
+
+double CommunicationLedger::close() {
+  seconds_ += roundCommunicationSeconds(open_, openAhead_);
+  open_.clear();
+  openAhead_.clear();
+  return seconds_;
 }
 
 void RunReport::writeJson(const std::filesystem::path& path) const {
@@ -48,7 +85,7 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
   j["peers"] = nlohmann::json::array();
   for (const auto& p : peers)
     j["peers"].push_back({{"name", p.name}, {"kind", p.kind}, {"version", p.version},
-                          {"compute_s", p.computeS}, {"communication_s", p.communicationS},
+                          {"compute_s", p.computeS}, {"ahead_s", p.aheadS}, {"communication_s", p.communicationS},
                           {"messages_sent", p.messagesSent}, {"messages_received", p.messagesReceived},
                           {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
                           {"critical_dt_s", p.criticalDt}, {"critical_dt_min_s", p.minCriticalDt},
@@ -94,12 +131,15 @@ std::string RunReport::text() const {
   const double loop = loopS > 0 ? loopS : 1.0;
   s << "  coupler       mapping " << mappingS << " s (" << 100.0 * mappingS / loop << " %), output " << outputS
     << " s (" << 100.0 * outputS / loop << " %)\n";
-  for (const auto& p : peers)
+  for (const auto& p : peers) {
     s << "  " << std::left << std::setw(13) << p.name << std::right << " compute " << p.computeS << " s ("
-      << 100.0 * p.computeS / loop << " %), communication " << p.communicationS << " s ("
+      << 100.0 * p.computeS / loop << " %";
+    if (p.aheadS > 0.0) s << ", " << p.aheadS << " s of it worked ahead";
+    s << "), communication " << p.communicationS << " s ("
       << 100.0 * p.communicationS / loop << " %), " << p.messagesSent << " requests, "
       << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved" << (p.cpus.empty() ? "" : ", CPUs " + p.cpus)
       << "\n";
+  }
   s << "  overhead      communication " << communicationS << " s + mapping = " << 100.0 * couplingOverheadShare()
     << " % of the exchange loop\n";
   for (const auto& e : errors)

@@ -157,7 +157,7 @@ class CouplerRun final : public ExchangeDriver {
       round.push_back(takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt));
       advanced.insert(pending[i].first);
     }
-    report_.communicationS += roundCommunicationSeconds(round);
+    communication_.add(std::move(round));
     runCouplings(advanced);
     record();
     completed_ = exchange_;
@@ -439,10 +439,17 @@ class CouplerRun final : public ExchangeDriver {
   /// Takes a solver's reply in; returns its part in the round's timing.
   RoundTrip takeAdvanced(const std::string& name, wire::Reply&& reply, double sentAt, double dt) {
     auto adv = reply.message.envelope().getBody().getAdvanced();
-    const RoundTrip trip{sentAt, reply.receivedAt, adv.getComputeSeconds(), adv.getComputeStartedAt()};
+    const RoundTrip trip{sentAt,
+                         reply.receivedAt,
+                         adv.getComputeSeconds(),
+                         adv.getComputeStartedAt(),
+                         adv.getAheadSeconds(),
+                         adv.getAheadStartedAt()};
     auto& t = timings_[name];
-    t.computeS += trip.computeS;
-    t.communicationS += std::max(0.0, trip.receivedAt - trip.sentAt - trip.computeS);
+    t.computeS += trip.computeS + trip.aheadS;
+    t.aheadS += trip.aheadS;
+    t.communicationS +=
+        std::max(0.0, trip.receivedAt - trip.sentAt - trip.computeS - aheadInsideRoundTrip(trip));
     if (recordsThisExchange()) noteCriticalStep(name, adv.getCriticalDt(), dt);
     if (const auto bad = nonFiniteEnergy(name, adv.getEnergies()))
       throw wire::PeerFault(name, *bad + " at exchange " + std::to_string(exchange_) + " (t = " + std::to_string(time_) +
@@ -563,6 +570,7 @@ class CouplerRun final : public ExchangeDriver {
     report_.exitCode = code;
     report_.exchanges = completed_;
     report_.simulatedTime = time_;
+    report_.communicationS = communication_.close();
   }
 
   // Steal time above a few percent means the wall times (and every ratio
@@ -647,6 +655,7 @@ class CouplerRun final : public ExchangeDriver {
   std::map<std::string, wire::InMessage> energySource_;  // the reply the energies came with, when older
   std::map<std::string, InputAssembler> inputs_;
   std::map<std::string, PeerTiming> timings_;
+  CommunicationLedger communication_;  // the rounds' communication, settled a round late (work ahead)
   std::uint64_t exchange_ = 0;   // the exchange in progress (or last done)
   std::uint64_t completed_ = 0;  // exchanges fully done and recorded
   double time_ = 0.0;

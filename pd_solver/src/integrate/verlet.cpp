@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "cosim/pd/system.hpp"
 
@@ -157,28 +158,63 @@ void PdSystem::kick(double dt) {
   applyConstraints();
 }
 
-void PdSystem::drift(double dt) {
-  auto& u = particles_.displacement;
-  const auto& v = particles_.velocity;
-  const long n = static_cast<long>(u.size());
-  for (long k = 0; k < n; ++k) u[static_cast<std::size_t>(k)] += dt * v[static_cast<std::size_t>(k)];
+void PdSystem::beginStep(double dt) {
+  // v_{n+1/2} = v_n + dt/2 a_n and x_{n+1} = x_n + dt v_{n+1/2}, written
+  // into the spare buffers (the same arithmetic as a kick in place) and
+  // swapped in: the state before stays whole without a copy.
+  auto& p = particles_;
+  const std::size_t n3 = p.velocity.size();
+  beforeVelocity_.resize(n3);
+  beforeDisplacement_.resize(n3);
+  beforeInternal_.resize(n3);
+  const double h = 0.5 * dt;
+  for (std::size_t q = 0; q < n3; ++q)
+    beforeVelocity_[q] = p.velocity[q] + h * (p.internalForce[q] + p.externalForce[q]) / p.mass[q / 3];
+  constrain(beforeVelocity_);
+  for (std::size_t q = 0; q < n3; ++q) beforeDisplacement_[q] = p.displacement[q] + dt * beforeVelocity_[q];
+  p.velocity.swap(beforeVelocity_);
+  p.displacement.swap(beforeDisplacement_);
+  p.internalForce.swap(beforeInternal_);
+  computeInternal();
 }
 
-void PdSystem::step(double dt) {
-  kick(0.5 * dt);
-  drift(dt);
+void PdSystem::completeStep(double dt) {
   time_ += dt;
   ++step_;
   // Work of external forces by the trapezoidal rule over the drift,
   // dW = (f_n + f_{n+1}) / 2 . v_{n+1/2} dt.
   externalPrev_ = particles_.externalForce;
-  computeForces();
+  computeExternal();
   const auto& v = particles_.velocity;
   const auto& fe = particles_.externalForce;
   double w = 0.0;
   for (std::size_t q = 0; q < v.size(); ++q) w += 0.5 * (externalPrev_[q] + fe[q]) * v[q] * dt;
   work_ += w;
   kick(0.5 * dt);
+  aheadDt_ = 0.0;
+}
+
+bool PdSystem::lookAhead(double dt) {
+  if (aheadDt_ > 0.0) return aheadDt_ == dt;
+  for (std::size_t b = 0; b < bodies_.size(); ++b)
+    if (bodies_[b].model->mayBreakBonds(context(b))) return false;
+  beginStep(dt);
+  aheadDt_ = dt;
+  return true;
+}
+
+void PdSystem::completeLookAhead() {
+  if (!(aheadDt_ > 0.0)) throw std::logic_error("PdSystem::completeLookAhead without a pending lookAhead");
+  completeStep(aheadDt_);
+}
+
+void PdSystem::cancelLookAhead() {
+  if (!(aheadDt_ > 0.0)) return;
+  auto& p = particles_;
+  p.velocity.swap(beforeVelocity_);
+  p.displacement.swap(beforeDisplacement_);
+  p.internalForce.swap(beforeInternal_);
+  aheadDt_ = 0.0;
 }
 
 void PdSystem::stepStaggered(double dt) {

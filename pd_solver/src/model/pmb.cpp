@@ -128,6 +128,8 @@ class Pmb final : public PdModel {
     return e;
   }
 
+  bool mayBreakBonds(const BodyContext& body) const override { return body.options.criticalStretch > 0.0; }
+
   std::size_t breakBonds(const BodyContext& body, Bonds& b) override {
     const double s0 = body.options.criticalStretch;
     if (!(s0 > 0.0)) return 0;

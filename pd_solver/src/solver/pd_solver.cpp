@@ -181,6 +181,13 @@ void PdSolver::readHybridForces(cosim::proto::CouplingData::Reader data, std::ve
 
 void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::CouplingData::Builder outputs) {
   requireSetup("advance");
+  const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
+  // The step worked ahead is this request's only where it is the same step
+  // with the same coupling; otherwise the state goes back to where it was.
+  const bool ahead = system_.lookAheadStep() > 0.0 && endOfStepCoupling(req.steps, interpolate) &&
+                     req.dt == system_.lookAheadStep();
+  if (!ahead) system_.cancelLookAhead();
+  mayWorkAhead_ = false;
   lastDt_ = req.dt;
   const double crit = system_.criticalTimeStep();
   if (req.dt > crit * (1.0 + 1e-12) && !config_.force)
@@ -189,7 +196,6 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
                                                   " s (" + criticalStepRule() +
                                                   ", docs/pd.md); set 'force: true' to override");
   std::vector<double> f0, f1;
-  const bool interpolate = config_.interpolate && req.inputsEnd.has_value();
   // Forces sent with their stiffness follow their particles over the sub-steps
   // (pd-dem-contact `forces: linearised`); interpolation takes precedence.
   readHybridForces(req.inputs, f0, &system_.linearisedCoupling());
@@ -230,14 +236,20 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
       if (interpolate)
         for (std::size_t q = 0; q < coupling.size(); ++q)
           coupling[q] = f0[q] + (f1[q] - f0[q]) * static_cast<double>(k + 1) / n;
-      system_.step(req.dt);
+      if (ahead) system_.completeLookAhead();
+      else system_.step(req.dt);
     }
   }
   checkFinite();
+  mayWorkAhead_ = config_.workAhead && endOfStepCoupling(n, interpolate);
   ++advances_;
   if (snapshots_ && advances_ % config_.outputEvery == 0) snapshots_->write(system_);
   // The exchange names the message: the same after a restore.
   writeHybrid(outputs, false, req.exchange + 1);
+}
+
+bool PdSolver::workAhead() {
+  return ready_ && mayWorkAhead_ && system_.lookAhead(lastDt_);
 }
 
 void PdSolver::checkFinite() const {
@@ -325,6 +337,7 @@ void PdSolver::receiveWatch(cosim::proto::CouplingData::Reader data) {
 
 void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::CouplingData::Builder out) {
   requireSetup("fields");
+  system_.cancelLookAhead();
   std::vector<std::string> want = names.empty() ? fieldNames() : names;
   for (const auto& n : want) {
     bool known = false;
@@ -372,6 +385,7 @@ void PdSolver::fields(const std::vector<std::string>& names, cosim::proto::Coupl
 
 std::uint64_t PdSolver::checkpoint(const std::string& path) {
   requireSetup("checkpoint");
+  system_.cancelLookAhead();
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw SolverError(Error::Code::SOLVER_FAILURE, path + ": cannot write checkpoint");
   out.write(kMagic, sizeof kMagic);
@@ -396,6 +410,7 @@ std::uint64_t PdSolver::checkpoint(const std::string& path) {
 
 void PdSolver::restore(const std::string& path) {
   requireSetup("restore");
+  system_.cancelLookAhead();
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SolverError(Error::Code::BAD_INPUT, path + ": cannot open checkpoint");
   char magic[8] = {};
@@ -458,6 +473,9 @@ double PdSolver::criticalDt() const { return ready_ ? system_.criticalTimeStep()
 
 cosim::wire::NamedValues PdSolver::energies() const {
   if (!ready_) return {};
+  if (system_.lookAheadStep() > 0.0)
+    throw SolverError(Error::Code::INTERNAL,
+                      "energies asked for while the next step is worked ahead (the host asks with the advance)");
   const auto e = system_.energies();
   if (const auto broken = energyBalance_.check(e.kinetic + e.strain, e.externalWork)) {
     std::ostringstream m;

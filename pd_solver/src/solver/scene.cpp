@@ -230,7 +230,8 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
   Reader r{sceneFile};
   PdConfig c;
   r.allowOnly(params, "params", {"bodies", "boundary", "loads", "body_force", "integrator", "inputs",
-                                 "force", "hybrid", "output", "quasi_static", "energy_tolerance", "critical_step"});
+                                 "force", "hybrid", "output", "quasi_static", "energy_tolerance", "critical_step",
+                                 "work_ahead"});
   const auto bodies = params["bodies"];
   if (!bodies || !bodies.IsSequence() || bodies.size() == 0)
     r.fail(params, "'bodies' must be a non-empty list");
@@ -291,6 +292,7 @@ PdConfig parsePdParams(const YAML::Node& params, const std::string& sceneFile, c
     c.interpolate = v == "interpolate";
   }
   if (params["force"]) c.force = r.flag(params["force"], "force");
+  if (params["work_ahead"]) c.workAhead = r.flag(params["work_ahead"], "work_ahead");
   if (const auto n = params["critical_step"]) {
     const auto v = r.text(n, "critical_step");
     if (v != "rule" && v != "measured") r.fail(n, "'critical_step' must be rule or measured");

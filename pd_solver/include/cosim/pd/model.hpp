@@ -40,6 +40,9 @@ class PdModel {
   virtual std::vector<double> energyDensity(const BodyContext& body) const = 0;
   /// Marks bonds that fail in the current configuration; returns how many broke.
   virtual std::size_t breakBonds(const BodyContext&, Bonds&) { return 0; }
+  /// Whether breakBonds may break any bond of the body (a step computed ahead
+  /// can only be taken back where none can, PdSystem::lookAhead).
+  virtual bool mayBreakBonds(const BodyContext&) const { return false; }
   /// Stiffness bound per unit volume used by dynamic relaxation's fictitious density.
   virtual double stiffnessBound(const BodyContext& body, std::size_t particle) const = 0;
 };

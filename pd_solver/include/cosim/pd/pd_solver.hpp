@@ -26,6 +26,11 @@ class PdSolver final : public cosim::wire::Solver {
   double criticalDt() const override;
   cosim::wire::NamedValues energies() const override;
   std::size_t outputWordsHint() const override;
+  /// After a one-step advance with the end-of-step coupling force: the next
+  /// step's half kick, drift and bond forces (PdSystem::lookAhead), which do
+  /// not depend on the force DEM evaluates meanwhile. The next advance with
+  /// the same dt completes that step; any other request takes it back first.
+  bool workAhead() override;
 
   PdSystem& system() { return system_; }
   const std::vector<std::uint32_t>& hybridParticles() const { return hybrid_; }
@@ -64,6 +69,7 @@ class PdSolver final : public cosim::wire::Solver {
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::uint64_t advances_ = 0;
   double lastDt_ = 0.0;
+  bool mayWorkAhead_ = false;  // the last advance was one step with the end-of-step coupling
   // Checked whenever energies are asked for; the check keeps the largest energy seen.
   mutable util::EnergyBalance energyBalance_;
   bool ready_ = false;

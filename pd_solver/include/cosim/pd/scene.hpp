@@ -27,6 +27,10 @@ struct PdConfig {
   bool staggered = false;    // integrator: staggered (Hartmann Eq. 47) | verlet
   bool interpolate = false;  // inputs: interpolate | hold
   bool force = false;        // accept dt above the critical step
+  /// work_ahead: after an advance's reply, compute the next step's half kick,
+  /// drift and bond forces while the coupler and DEM work (Solver::workAhead);
+  /// results are bitwise the same either way.
+  bool workAhead = true;
   /// critical_step: rule (0.45 delta / c_p) | measured (kMeasuredStepSafety x
   /// 2 / omega_max of each body, power iteration at setup; critical_step.cpp)
   bool measuredCriticalStep = false;

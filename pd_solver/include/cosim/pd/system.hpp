@@ -103,7 +103,26 @@ class PdSystem {
   std::vector<LinearisedCoupling>& linearisedCoupling() { return linearised_; }
 
   /// One velocity-Verlet step (Hartmann Eq. 44 in its synchronised form).
-  void step(double dt);
+  void step(double dt) {
+    beginStep(dt);
+    completeStep(dt);
+  }
+  /// The first half of step(dt) ahead of the coupling force that ends it:
+  /// the half kick, the drift and the peridynamic forces at the new
+  /// positions, which depend on the state alone. With the end-of-step
+  /// coupling (monolithic Verlet, docs/pd_dem_coupling.md) PdSolver runs it
+  /// while DEM evaluates that force at those positions. The state before it
+  /// is kept (swapped buffers, no copies) for cancelLookAhead. Does nothing
+  /// and returns false where a body's bonds may break: a broken bond cannot
+  /// be taken back.
+  bool lookAhead(double dt);
+  /// Ends the step lookAhead(dt) began, with the coupling force now set:
+  /// bitwise what step(dt) gives from the state before lookAhead.
+  void completeLookAhead();
+  /// Returns to the state before lookAhead, bitwise (nothing pending: no-op).
+  void cancelLookAhead();
+  /// The step a pending lookAhead began; 0 when none is pending.
+  double lookAheadStep() const { return aheadDt_; }
   /// The velocities the next step's drift uses if the forces stay those of
   /// the state: v + dt/2 (f_int + f_ext) / m, constraints applied.
   const std::vector<double>& driftVelocities(double dt) const;
@@ -164,7 +183,12 @@ class PdSystem {
   /// Applies the boundary conditions to a velocity field.
   void constrain(std::vector<double>& v) const;
   void kick(double dt);
-  void drift(double dt);
+  /// Half kick and drift into the spare buffers, swapped in; then the
+  /// peridynamic forces at the new positions (the old ones are kept).
+  void beginStep(double dt);
+  /// Coupling and applied forces, the work of the external forces, the
+  /// second half kick.
+  void completeStep(double dt);
 
   Particles particles_;
   std::vector<Body> bodies_;
@@ -176,6 +200,10 @@ class PdSystem {
   std::vector<double> externalPrev_;
   std::vector<double> velocityBefore_, velocityCoupled_;  // stepStaggered scratch
   mutable std::vector<double> driftVelocity_;             // driftVelocities' result
+  // The state before beginStep (velocity, displacement, internal force): the
+  // buffers the step wrote into before the swap.
+  std::vector<double> beforeVelocity_, beforeDisplacement_, beforeInternal_;
+  double aheadDt_ = 0.0;  // the step a pending lookAhead began
   double time_ = 0.0;
   std::uint64_t step_ = 0;
   double work_ = 0.0;

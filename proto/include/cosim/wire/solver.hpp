@@ -82,6 +82,14 @@ class Solver {
   /// Largest stable step for the current state; 0 when unlimited.
   virtual double criticalDt() const = 0;
   virtual NamedValues energies() const = 0;
+  /// Called by the host right after it sent an advance's reply, before it
+  /// waits for the next request. A solver may compute here what its next
+  /// advance needs from the state it just reported alone (PD: the next step's
+  /// half kick, drift and bond forces), so that work overlaps the coupler's
+  /// and the other solvers'. Whatever request comes next must be answered
+  /// bitwise as if nothing had been done ahead. Returns whether it did any
+  /// work (the host reports its time with the next advance).
+  virtual bool workAhead() { return false; }
   /// Size hint (8-byte words) for reply buffers, so large outputs stay in one segment.
   virtual std::size_t outputWordsHint() const { return 1024; }
 };

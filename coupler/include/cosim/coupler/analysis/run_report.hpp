@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cosim/util/host_cpu_time.hpp"
@@ -16,7 +17,8 @@ struct PeerTiming {
   std::string name;
   std::string kind;
   std::string version;
-  double computeS = 0.0;        // inside the solver's advance, as it reports
+  double computeS = 0.0;        // inside the solver's advance, as it reports (work ahead included)
+  double aheadS = 0.0;          // of which worked ahead, between a reply and the next request
   double communicationS = 0.0;  // request round trips minus compute (in a round where solvers
                                 // compute at once, waiting for the others counts here too)
   std::uint64_t messagesSent = 0;
@@ -44,6 +46,8 @@ struct RoundTrip {
   double receivedAt = 0.0;        // when the reply was taken off the socket
   double computeS = 0.0;          // the solver's advance, as it reports
   double computeStartedAt = 0.0;  // the solver's clock when it began (0: not reported)
+  double aheadS = 0.0;            // work the solver did ahead of this request, after its last reply
+  double aheadStartedAt = 0.0;    // the solver's clock when that work began (0: none)
 };
 
 /// The wall time of one exchange round spent outside every solver's compute:
@@ -54,7 +58,30 @@ struct RoundTrip {
 /// (shares above 100 %). A solver's reported start is used where it lies on the
 /// coupler's clock (same host: between the send and the reply); otherwise its
 /// compute is taken to end when its reply arrived.
-double roundCommunicationSeconds(const std::vector<RoundTrip>& round);
+/// `alsoComputing` adds work known to have run during the round (a solver's
+/// work ahead, on the coupler's clock), clipped to the round.
+double roundCommunicationSeconds(const std::vector<RoundTrip>& round,
+                                 const std::vector<std::pair<double, double>>& alsoComputing = {});
+
+/// The part of a request's round trip its solver spent finishing the work it
+/// did ahead (Solver::workAhead): the request waited for it in the queue.
+double aheadInsideRoundTrip(const RoundTrip& trip);
+
+/// Sums the exchange rounds' communication. A solver's work ahead arrives
+/// with its next reply but ran during the rounds before (PD's next bond
+/// forces while DEM stepped), so a round is settled only once the next one
+/// is in; work ahead spanning more rounds counts as communication there.
+class CommunicationLedger {
+ public:
+  void add(std::vector<RoundTrip> round);
+  /// Settles the round still open; returns the total.
+  double close();
+
+ private:
+  std::vector<RoundTrip> open_;
+  std::vector<std::pair<double, double>> openAhead_;  // work ahead reported with the open round
+  double seconds_ = 0.0;
+};
 
 struct RunReport {
   std::string scene;
