@@ -218,11 +218,24 @@ void PdSystem::finalise() {
     }
   }
   for (std::size_t k = 0; k < loads_.size(); ++k) loads_[k].particles = resolve(loads_[k].where, EntryError::Entry::Load, k);
+  indexConstraints();
   coupling_.assign(3 * particles_.size(), 0.0);
   finalised_ = true;
   applyConstraints();
   computeForces();
   externalPrev_ = particles_.externalForce;
+}
+
+void PdSystem::indexConstraints() {
+  const std::size_t n = particles_.size();
+  constraintOffset_.assign(n + 1, 0);
+  for (const auto& bc : bcs_)
+    for (const auto i : bc.particles) ++constraintOffset_[i + 1];
+  for (std::size_t i = 0; i < n; ++i) constraintOffset_[i + 1] += constraintOffset_[i];
+  constraintEntry_.resize(constraintOffset_[n]);
+  auto next = constraintOffset_;
+  for (std::uint32_t k = 0; k < bcs_.size(); ++k)
+    for (std::uint32_t q = 0; q < bcs_[k].particles.size(); ++q) constraintEntry_[next[bcs_[k].particles[q]]++] = {k, q};
 }
 
 std::vector<double> PdSystem::damageField() const {

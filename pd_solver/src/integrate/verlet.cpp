@@ -108,59 +108,45 @@ void PdSystem::computeForces() {
 
 void PdSystem::applyConstraints() { constrain(particles_.velocity); }
 
-const std::vector<double>& PdSystem::driftVelocities(double dt) const {
-  const auto& v = particles_.velocity;
-  const auto& fi = particles_.internalForce;
-  const auto& fe = particles_.externalForce;
-  const auto& m = particles_.mass;
-  driftVelocity_.resize(v.size());
-  for (std::size_t q = 0; q < v.size(); ++q) driftVelocity_[q] = v[q] + 0.5 * dt * (fi[q] + fe[q]) / m[q / 3];
-  constrain(driftVelocity_);
-  return driftVelocity_;
+void PdSystem::driftVelocity(double dt, std::size_t i, double out[3]) const {
+  const auto& p = particles_;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::size_t q = 3 * i + a;
+    out[a] = p.velocity[q] + 0.5 * dt * (p.internalForce[q] + p.externalForce[q]) / p.mass[i];
+  }
+  for (std::uint32_t e = constraintOffset_[i]; e < constraintOffset_[i + 1]; ++e)
+    constrainEntry(bcs_[constraintEntry_[e].first], constraintEntry_[e].second, out);
 }
 
-void PdSystem::constrain(std::vector<double>& v) const {
-  for (const auto& bc : bcs_) {
-    for (std::size_t q = 0; q < bc.particles.size(); ++q) {
-      const std::size_t i = bc.particles[q];
-      switch (bc.type) {
-        case Constraint::Fixed:
-          for (int a = 0; a < 3; ++a) v[3 * i + a] = 0.0;
-          break;
-        case Constraint::Velocity:
-          for (int a = 0; a < 3; ++a) v[3 * i + a] = bc.velocity[a];
-          break;
-        case Constraint::NormalOnly: {
-          // Motion along the local surface normal only is suppressed.
-          const double* n = &bc.normals[3 * q];
-          const double vn = v[3 * i] * n[0] + v[3 * i + 1] * n[1] + v[3 * i + 2] * n[2];
-          for (int a = 0; a < 3; ++a) v[3 * i + a] -= vn * n[a];
-          break;
-        }
-      }
+void PdSystem::constrainEntry(const BoundaryCondition& bc, std::size_t q, double* v) {
+  switch (bc.type) {
+    case Constraint::Fixed:
+      for (int a = 0; a < 3; ++a) v[a] = 0.0;
+      break;
+    case Constraint::Velocity:
+      for (int a = 0; a < 3; ++a) v[a] = bc.velocity[a];
+      break;
+    case Constraint::NormalOnly: {
+      // Motion along the local surface normal only is suppressed.
+      const double* n = &bc.normals[3 * q];
+      const double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+      for (int a = 0; a < 3; ++a) v[a] -= vn * n[a];
+      break;
     }
   }
 }
 
-// Kick, drift and the external force are O(n) streams, microseconds even for
-// 10^5 particles; they stay serial so a step has as few OpenMP barriers as
-// possible (the bond loops of the models are the parallel part).
-void PdSystem::kick(double dt) {
-  auto& v = particles_.velocity;
-  const auto& fi = particles_.internalForce;
-  const auto& fe = particles_.externalForce;
-  const auto& m = particles_.mass;
-  const long n = static_cast<long>(3 * particles_.size());
-  for (long k = 0; k < n; ++k) {
-    const auto q = static_cast<std::size_t>(k);
-    v[q] += dt * (fi[q] + fe[q]) / m[q / 3];
-  }
-  applyConstraints();
+void PdSystem::constrain(std::vector<double>& v) const {
+  for (const auto& bc : bcs_)
+    for (std::size_t q = 0; q < bc.particles.size(); ++q) constrainEntry(bc, q, &v[3 * bc.particles[q]]);
 }
 
+// Kicks, drift and the external force are O(n) streams, microseconds even
+// for 10^5 particles; they stay serial so a step has as few OpenMP barriers
+// as possible (the bond loops of the models are the parallel part).
 void PdSystem::beginStep(double dt) {
   // v_{n+1/2} = v_n + dt/2 a_n and x_{n+1} = x_n + dt v_{n+1/2}, written
-  // into the spare buffers (the same arithmetic as a kick in place) and
+  // into the spare buffers (the same arithmetic as in place) and
   // swapped in: the state before stays whole without a copy.
   auto& p = particles_;
   const std::size_t n3 = p.velocity.size();
@@ -181,16 +167,25 @@ void PdSystem::beginStep(double dt) {
 void PdSystem::completeStep(double dt) {
   time_ += dt;
   ++step_;
-  // Work of external forces by the trapezoidal rule over the drift,
-  // dW = (f_n + f_{n+1}) / 2 . v_{n+1/2} dt.
-  externalPrev_ = particles_.externalForce;
+  // computeExternal writes every value: the old ones are kept by a swap.
+  auto& p = particles_;
+  externalPrev_.swap(p.externalForce);
+  p.externalForce.resize(externalPrev_.size());
   computeExternal();
-  const auto& v = particles_.velocity;
-  const auto& fe = particles_.externalForce;
+  // Work of external forces by the trapezoidal rule over the drift,
+  // dW = (f_n + f_{n+1}) / 2 . v_{n+1/2} dt, then the second half kick, in
+  // one pass.
+  auto& v = p.velocity;
+  const auto& fe = p.externalForce;
+  const auto& fi = p.internalForce;
+  const double h = 0.5 * dt;
   double w = 0.0;
-  for (std::size_t q = 0; q < v.size(); ++q) w += 0.5 * (externalPrev_[q] + fe[q]) * v[q] * dt;
+  for (std::size_t q = 0; q < v.size(); ++q) {
+    w += 0.5 * (externalPrev_[q] + fe[q]) * v[q] * dt;
+    v[q] += h * (fi[q] + fe[q]) / p.mass[q / 3];
+  }
   work_ += w;
-  kick(0.5 * dt);
+  applyConstraints();
   aheadDt_ = 0.0;
 }
 

@@ -275,7 +275,6 @@ void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet
   // velocity, DEM's drift of the driven sphere ends where PD's will, and the
   // force it returns is the one at PD's next positions (pddem.capnp).
   const bool drift = !config_.staggered && !config_.quasiStatic && lastDt_ > 0.0;
-  const auto& v = drift ? system_.driftVelocities(lastDt_) : p.velocity;
   hybridX_.resize(3 * n);
   hybridV_.resize(3 * n);
   for (unsigned q = 0; q < n; ++q) {
@@ -283,8 +282,9 @@ void PdSolver::writeHybrid(cosim::proto::CouplingData::Builder out, bool withSet
     for (int a = 0; a < 3; ++a) {
       const std::size_t k = 3 * i + static_cast<std::size_t>(a);
       hybridX_[3 * q + a] = p.reference[k] + p.displacement[k];
-      hybridV_[3 * q + a] = v[k];
+      hybridV_[3 * q + a] = p.velocity[k];
     }
+    if (drift) system_.driftVelocity(lastDt_, i, &hybridV_[3 * q]);
   }
   // The hybrid watch (hybrid_watch.hpp): the states DEM watches alone, where it may.
   const std::vector<std::uint32_t>* part = serial > 0 && !withSet ? watch_.select(hybridX_, hybridV_) : nullptr;

@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cosim/pd/body.hpp"
@@ -123,9 +124,10 @@ class PdSystem {
   void cancelLookAhead();
   /// The step a pending lookAhead began; 0 when none is pending.
   double lookAheadStep() const { return aheadDt_; }
-  /// The velocities the next step's drift uses if the forces stay those of
-  /// the state: v + dt/2 (f_int + f_ext) / m, constraints applied.
-  const std::vector<double>& driftVelocities(double dt) const;
+  /// Particle i's velocity for the next step's drift if the forces stay
+  /// those of the state: v + dt/2 (f_int + f_ext) / m, its boundary
+  /// conditions applied (one particle: PdSolver sends the hybrids' alone).
+  void driftVelocity(double dt, std::size_t i, double out[3]) const;
   /// One staggered step (Hartmann Eq. 47): coupling and body-force kick and
   /// drift first, then peridynamic forces at the updated positions, second kick.
   void stepStaggered(double dt);
@@ -180,9 +182,12 @@ class PdSystem {
   bool sharesBodiesOut() const;
   void addLinearisedChange(const LinearisedCoupling& c, std::vector<double>& f) const;
   void applyConstraints();
+  /// Lists each particle's boundary-condition entries (finalise).
+  void indexConstraints();
   /// Applies the boundary conditions to a velocity field.
   void constrain(std::vector<double>& v) const;
-  void kick(double dt);
+  /// Applies entry q of boundary condition bc to its particle's velocity v (3 values).
+  static void constrainEntry(const BoundaryCondition& bc, std::size_t q, double* v);
   /// Half kick and drift into the spare buffers, swapped in; then the
   /// peridynamic forces at the new positions (the old ones are kept).
   void beginStep(double dt);
@@ -199,7 +204,10 @@ class PdSystem {
   std::vector<LinearisedCoupling> linearised_;
   std::vector<double> externalPrev_;
   std::vector<double> velocityBefore_, velocityCoupled_;  // stepStaggered scratch
-  mutable std::vector<double> driftVelocity_;             // driftVelocities' result
+  // Each particle's boundary-condition entries (condition, position in its
+  // list) in the conditions' order, rows by particle (built at finalise).
+  std::vector<std::uint32_t> constraintOffset_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> constraintEntry_;
   // The state before beginStep (velocity, displacement, internal force): the
   // buffers the step wrote into before the swap.
   std::vector<double> beforeVelocity_, beforeDisplacement_, beforeInternal_;
