@@ -22,7 +22,7 @@
 #   rate-independent contacts (Hertz-Mindlin, Coulomb), no damping and no
 #   gravity this is the paper's scene with every density S^2 times larger
 #   (mass scaling), as H3 and H4 run at 10x. S must divide the variant's
-#   exchanges per 0.25 s: 16800 (mixed), 8400 (mixed --coarse), 8000 (all-PD,
+#   exchanges per 0.25 s: 12000 (mixed), 8400 (mixed --coarse), 8000 (all-PD,
 #   all-DEM, all-PD --coarse).
 #   PD runs with OMP_NUM_THREADS threads (default 2: the pack's bodies are
 #   shared out body by body).
@@ -63,8 +63,8 @@ for v in ${variants//,/ }; do
   out=$work/$v
   sets=()
   # Exchanges (coarse steps) per 0.25 s: the mixed pack runs both solvers at
-  # 0.25 / 16800 s, the others at a coarse step of 3.125e-5 s.
-  quarter=$([ $v = mixed ] && echo 16800 || echo 8000)
+  # 0.25 / 12000 s, the others at a coarse step of 3.125e-5 s.
+  quarter=$([ $v = mixed ] && echo 12000 || echo 8000)
   if [ $coarse = 1 ] && [ $v != all-dem ]; then
     nb=$([ $v = mixed ] && echo 8 || echo 16)
     for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done

@@ -195,7 +195,11 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
                                                   " s exceeds the PD critical step " + std::to_string(crit) +
                                                   " s (" + criticalStepRule() +
                                                   ", docs/pd.md); set 'force: true' to override");
-  std::vector<double> f0, f1;
+  // Without interpolation the forces go straight into the system's coupling
+  // force (one pass, no copy: this is on the exchange's critical path).
+  auto& coupling = system_.couplingForce();
+  std::vector<double>& f0 = interpolate ? forcesStart_ : coupling;
+  std::vector<double>& f1 = forcesEnd_;
   // Forces sent with their stiffness follow their particles over the sub-steps
   // (pd-dem-contact `forces: linearised`); interpolation takes precedence.
   readHybridForces(req.inputs, f0, &system_.linearisedCoupling());
@@ -204,10 +208,9 @@ void PdSolver::advance(const cosim::wire::AdvanceRequest& req, cosim::proto::Cou
   if (interpolate) {
     system_.linearisedCoupling().clear();
     readHybridForces(*req.inputsEnd, f1, nullptr);
+    coupling = f0;
   }
-  auto& coupling = system_.couplingForce();
   const std::uint32_t n = req.steps;
-  coupling = f0;
   // One Verlet step per request with the force held: DEM evaluated it where
   // this step's drift ends (the hybrids' drift velocity, writeHybrid), so it
   // is monolithic Verlet's end-of-step force and enters after the drift; the

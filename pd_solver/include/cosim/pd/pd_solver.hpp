@@ -66,6 +66,7 @@ class PdSolver final : public cosim::wire::Solver {
   std::vector<double> hybridHorizon_;  // per body
   HybridWatch watch_;
   std::vector<double> hybridX_, hybridV_;  // every hybrid's position and drift velocity, 3 each
+  std::vector<double> forcesStart_, forcesEnd_;  // an interpolating advance's received forces, 3 per particle
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::uint64_t advances_ = 0;
   double lastDt_ = 0.0;
