@@ -92,8 +92,18 @@ class Lps final : public PdModel {
   std::vector<double> energyDensity(const BodyContext& body) const override {
     // The energy is asked for after advances, usually at the state the last
     // force evaluation saw (Verlet ends with one): reuse its extensions, from
-    // the row loops or the pair loops, whichever ran.
-    if (!extensionsAreCurrent(body)) updateExtensions(body);
+    // the row loops or the pair loops, whichever ran. Otherwise (the
+    // staggered update moves after its force evaluation) recompute them with
+    // the loops the forces would use: the pair loops take half the roots.
+    if (!extensionsAreCurrent(body)) {
+      if (!corrected_ && pairwise(body)) {
+        currentPositions(body, x_);
+        pairExtensions(body);
+        rememberExtensions(body, true);
+      } else {
+        updateExtensions(body);
+      }
+    }
     return extensionsInPairs_ ? pairEnergyDensity(body) : rowEnergyDensity(body);
   }
 
@@ -312,7 +322,7 @@ class Lps final : public PdModel {
   }
 
   // e (Eq. 18) per pair and theta (Eq. 20); thetaCoef_ = (w beta V_J) |xi|.
-  void pairExtensions(const BodyContext& body) {
+  void pairExtensions(const BodyContext& body) const {
     const std::size_t n = body.end - body.begin;
     const double* x = x_.data();
     const double* V = body.particles.volume.data() + body.begin;
@@ -507,7 +517,8 @@ class Lps final : public PdModel {
   // Pair lists of the pairwise loops: pairs of row i in [pairOffset_[i], pairOffset_[i + 1]).
   std::vector<std::size_t> pairOffset_;
   std::vector<std::uint32_t> pairPartner_;  // body-local index of the later particle
-  std::vector<double> pairLength_, pairWeight_, pairExtension_;  // |xi|, w beta, e
+  std::vector<double> pairLength_, pairWeight_;  // |xi|, w beta
+  mutable std::vector<double> pairExtension_;      // e of the pair loops (scratch, as e_)
   std::vector<double> pairForce_;  // force sums, 3 per particle
   std::vector<double> coefA_, coefB_;
 };
