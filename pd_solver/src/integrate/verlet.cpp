@@ -114,8 +114,12 @@ void PdSystem::driftVelocity(double dt, std::size_t i, double out[3]) const {
     const std::size_t q = 3 * i + a;
     out[a] = p.velocity[q] + 0.5 * dt * (p.internalForce[q] + p.externalForce[q]) / p.mass[i];
   }
+  constrainParticle(i, out);
+}
+
+void PdSystem::constrainParticle(std::size_t i, double* v) const {
   for (std::uint32_t e = constraintOffset_[i]; e < constraintOffset_[i + 1]; ++e)
-    constrainEntry(bcs_[constraintEntry_[e].first], constraintEntry_[e].second, out);
+    constrainEntry(bcs_[constraintEntry_[e].first], constraintEntry_[e].second, v);
 }
 
 void PdSystem::constrainEntry(const BoundaryCondition& bc, std::size_t q, double* v) {
@@ -222,30 +226,43 @@ void PdSystem::stepStaggered(double dt) {
   // x_{n+1} = x^C + dt (v_{n+1/2} - v^C) + dt v_{n-1/2}, so the total is
   // x_{n+1} = x_n + dt v_{n+1/2} and without coupling forces the scheme is
   // exactly the leapfrog of Eq. 44.
+  // Each half is one pass over the particles: kick, the particle's
+  // constraints, move and work (the same arithmetic, and the work summed in
+  // the same order, as separate passes over all particles).
   auto& v = particles_.velocity;
   auto& u = particles_.displacement;
   const auto& m = particles_.mass;
+  const auto& fe = particles_.externalForce;
+  const auto& fi = particles_.internalForce;
   computeExternal();
-  const std::size_t n3 = v.size();
-  velocityBefore_ = v;
-  const std::vector<double>& vOld = velocityBefore_;
-  for (std::size_t q = 0; q < n3; ++q) v[q] += dt * particles_.externalForce[q] / m[q / 3];
-  applyConstraints();
+  const std::size_t n = particles_.size();
+  velocityBefore_.resize(3 * n);
+  velocityCoupled_.resize(3 * n);
+  double* vOld = velocityBefore_.data();
+  double* vc = velocityCoupled_.data();
   double w = 0.0;
-  for (std::size_t q = 0; q < n3; ++q) {
-    const double du = dt * (v[q] - vOld[q]);
-    u[q] += du;
-    w += particles_.externalForce[q] * du;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
+      vOld[q] = v[q];
+      v[q] += dt * fe[q] / m[i];
+    }
+    constrainParticle(i, &v[3 * i]);
+    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
+      const double du = dt * (v[q] - vOld[q]);
+      u[q] += du;
+      w += fe[q] * du;
+      vc[q] = v[q];
+    }
   }
-  velocityCoupled_ = v;
-  const std::vector<double>& vc = velocityCoupled_;
   computeInternal();
-  for (std::size_t q = 0; q < n3; ++q) v[q] += dt * particles_.internalForce[q] / m[q / 3];
-  applyConstraints();
-  for (std::size_t q = 0; q < n3; ++q) {
-    const double du = dt * (v[q] - vc[q]) + dt * vOld[q];
-    u[q] += du;
-    w += particles_.externalForce[q] * du;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) v[q] += dt * fi[q] / m[i];
+    constrainParticle(i, &v[3 * i]);
+    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
+      const double du = dt * (v[q] - vc[q]) + dt * vOld[q];
+      u[q] += du;
+      w += fe[q] * du;
+    }
   }
   work_ += w;
   time_ += dt;

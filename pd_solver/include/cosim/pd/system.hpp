@@ -188,6 +188,8 @@ class PdSystem {
   void constrain(std::vector<double>& v) const;
   /// Applies entry q of boundary condition bc to its particle's velocity v (3 values).
   static void constrainEntry(const BoundaryCondition& bc, std::size_t q, double* v);
+  /// Particle i's boundary conditions, in their order, on its velocity v (3 values).
+  void constrainParticle(std::size_t i, double* v) const;
   /// Half kick and drift into the spare buffers, swapped in; then the
   /// peridynamic forces at the new positions (the old ones are kept).
   void beginStep(double dt);
