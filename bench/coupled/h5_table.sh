@@ -15,15 +15,15 @@
 #   directory with them in bin/ (default: <repo>/build/bin); e.g. /work/hbin.
 #   VARIANTS: comma-separated subset of mixed,all-pd,all-dem (default: all three).
 #   --coarse: PD spheres at dx = 0.03 m (552 particles each, 8x fewer), both
-#   solvers at 0.25 / 8400 s (0.985 of the coarse critical step 3.02e-5 s);
-#   the geometry is unchanged (its gaps allow dx 0.03 too).
+#   solvers at 0.25 / 8400 s (0.985 of the coarse critical step 3.02e-5 s),
+#   in the mixed and the all-PD pack; the geometry is unchanged (its gaps
+#   allow dx 0.03 too).
 #   --time-scale S: the walls move S times faster (S x 0.1 m/s) for 3 / S s,
 #   snapshots every 0.25 / S s, and the paper's times are read at t / S. With
 #   rate-independent contacts (Hertz-Mindlin, Coulomb), no damping and no
 #   gravity this is the paper's scene with every density S^2 times larger
 #   (mass scaling), as H3 and H4 run at 10x. S must divide the variant's
-#   exchanges per 0.25 s: 12000 (mixed), 8400 (mixed --coarse), 8000 (all-PD,
-#   all-DEM, all-PD --coarse).
+#   exchanges per 0.25 s: 12000 (mixed, all-PD), 8400 (--coarse), 8000 (all-DEM).
 #   PD runs with OMP_NUM_THREADS threads (default 2: the pack's bodies are
 #   shared out body by body).
 #   Extra options go to every `coupler run`, e.g. a short rate measurement:
@@ -62,21 +62,16 @@ for v in ${variants//,/ }; do
   esac
   out=$work/$v
   sets=()
-  # Exchanges (coarse steps) per 0.25 s: the mixed pack runs both solvers at
-  # 0.25 / 12000 s, the others at a coarse step of 3.125e-5 s.
-  quarter=$([ $v = mixed ] && echo 12000 || echo 8000)
+  # Exchanges (steps) per 0.25 s: the PD packs run both solvers at
+  # 0.25 / 12000 s, the all-DEM pack at 3.125e-5 s.
+  quarter=$([ $v = all-dem ] && echo 8000 || echo 12000)
   if [ $coarse = 1 ] && [ $v != all-dem ]; then
     nb=$([ $v = mixed ] && echo 8 || echo 16)
     for ((b = 0; b < nb; ++b)); do sets+=(--set "solvers.pack.params.bodies[$b].spacing=0.03"); done
-    if [ $v = mixed ]; then
-      # Twice the spacing, twice the critical step: the scene's update at 0.25 / 8400 s
-      quarter=8400
-      sets+=(--set schedule.dt=2.976190476190476e-5 --set schedule.ratio=1
-             --set solvers.pack.params.output.every=$quarter --set solvers.dem.params.snapshots.every=$quarter)
-    else
-      # The all-PD pack's staggered update at 0.227 of the coarse critical step, as its scene
-      sets+=(--set schedule.dt=7.8125e-6 --set schedule.ratio=4)
-    fi
+    # The scene's update at 0.25 / 8400 s (0.985 of the coarse rule's step)
+    quarter=8400
+    sets+=(--set schedule.dt=2.976190476190476e-5 --set schedule.ratio=1
+           --set solvers.pack.params.output.every=$quarter --set solvers.dem.params.snapshots.every=$quarter)
   fi
   if [ $((quarter % scale)) != 0 ]; then
     echo "h5_table.sh: --time-scale $scale does not divide the $v run's $quarter exchanges per 0.25 s" >&2
