@@ -190,8 +190,10 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
   // the result is bitwise equal. With 1 thread, LPS without surface
   // correction visits each pair once instead (its pairwise loops), which
   // must give the same bits as the row loops, and so must the strain energy
-  // it sums from the pair loops' extensions.
-  auto run = [](int threads, const char* model, bool corrected) {
+  // it sums from the pair loops' extensions. The staggered update moves after
+  // its force evaluation, so there the energy recomputes the extensions: with
+  // the pair loops on 1 thread, the row loops on 2.
+  auto run = [](int threads, const char* model, bool corrected, bool staggered) {
     omp_set_num_threads(threads);
     PdSystem sys;
     auto spec = test::box("block", model, 18, 18, 18, 1e-3, 3.0);
@@ -200,14 +202,18 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
     sys.addBody(spec);
     sys.finalise();
     randomVelocities(sys.particles(), 1.0);
-    for (int s = 0; s < 5; ++s) sys.step(0.5 * sys.criticalTimeStep());
+    for (int s = 0; s < 5; ++s) {
+      if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
+      else sys.step(0.5 * sys.criticalTimeStep());
+    }
     return endOf(sys);
   };
   const int saved = omp_get_max_threads();
   for (const char* model : {"pmb", "lps"})
     for (const bool corrected : {true, false})
-      expectSameBitsAfterMotion(run(1, model, corrected), run(2, model, corrected),
+      expectSameBitsAfterMotion(run(1, model, corrected, false), run(2, model, corrected, false),
                                 std::string(model) + (corrected ? " corrected" : " uncorrected"));
+  expectSameBitsAfterMotion(run(1, "lps", false, true), run(2, "lps", false, true), "lps uncorrected staggered");
   omp_set_num_threads(saved);
 }
 

@@ -96,13 +96,8 @@ class Lps final : public PdModel {
     // staggered update moves after its force evaluation) recompute them with
     // the loops the forces would use: the pair loops take half the roots.
     if (!extensionsAreCurrent(body)) {
-      if (!corrected_ && pairwise(body)) {
-        currentPositions(body, x_);
-        pairExtensions(body);
-        rememberExtensions(body, true);
-      } else {
-        updateExtensions(body);
-      }
+      if (!corrected_ && pairwise(body)) pairExtensions(body);
+      else updateExtensions(body);
     }
     return extensionsInPairs_ ? pairEnergyDensity(body) : rowEnergyDensity(body);
   }
@@ -314,15 +309,15 @@ class Lps final : public PdModel {
   }
 
   void pairForces(const BodyContext& body, std::vector<double>& force) {
-    currentPositions(body, x_);
     pairExtensions(body);
-    rememberExtensions(body, true);
     particleCoefficients(static_cast<long>(body.end - body.begin));
     pairBondForces(body, force);
   }
 
-  // e (Eq. 18) per pair and theta (Eq. 20); thetaCoef_ = (w beta V_J) |xi|.
+  // e (Eq. 18) per pair and theta (Eq. 20) at the current positions, as
+  // updateExtensions for the row loops; thetaCoef_ = (w beta V_J) |xi|.
   void pairExtensions(const BodyContext& body) const {
+    currentPositions(body, x_);
     const std::size_t n = body.end - body.begin;
     const double* x = x_.data();
     const double* V = body.particles.volume.data() + body.begin;
@@ -342,6 +337,7 @@ class Lps final : public PdModel {
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
     }
+    rememberExtensions(body, true);
   }
 
   // Eq. 24 from the pair loops' e and theta. Every particle sums its
