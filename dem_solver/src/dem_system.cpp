@@ -401,6 +401,19 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   // thread count.
   chunkLost_.assign(chunkCount(), 0.0);
   const PeriodicCell& box = cell;
+  // The arrays as plain pointers, taken once: `touching` is a byte array, and
+  // a store through it may alias anything as far as the compiler knows, so it
+  // would reload every vector's data pointer after each one.
+  const Vec3* x = p.x.data();
+  const double* radius = p.radius.data();
+  const auto* material = p.material.data();
+  const std::uint32_t *rowStart = neighbors.rowStart.data(), *partner = neighbors.partner.data();
+  const auto* image = neighbors.image.data();
+  std::uint8_t* touching = neighbors.touching.data();
+  Vec3* shear = neighbors.shear.data();
+  PairForce* pf = pairForce.data();
+  Vec3 *sumF = pairSumF_.data(), *sumT = pairSumT_.data();
+  const std::size_t materialCount = materials.size();
 #pragma omp parallel if (n > kParallelMin)
   {
     double local = 0.0;
@@ -412,11 +425,11 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
       for (std::size_t e = 0; e < batch.count; ++e) {
         const std::uint32_t k = batch.pair[e], i = batch.row[e];
         const Vec3 f{batch.fx[e], batch.fy[e], batch.fz[e]};
-        neighbors.shear[k] = {batch.sx[e], batch.sy[e], batch.sz[e]};
-        neighbors.touching[k] = 1;
-        pairForce[k] = {f, {batch.tjx[e], batch.tjy[e], batch.tjz[e]}};
-        pairSumF_[i] += f;
-        pairSumT_[i] -= Vec3{batch.tix[e], batch.tiy[e], batch.tiz[e]};
+        shear[k] = {batch.sx[e], batch.sy[e], batch.sz[e]};
+        touching[k] = 1;
+        pf[k] = {f, {batch.tjx[e], batch.tjy[e], batch.tjz[e]}};
+        sumF[i] += f;
+        sumT[i] -= Vec3{batch.tix[e], batch.tiy[e], batch.tiz[e]};
         local += batch.lost[e];
       }
       batch.count = 0;
@@ -427,23 +440,26 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
       local = 0.0;
       for (std::size_t i = c * kRowsPerChunk; i < chunkEnd(c); ++i) {
         // Rows without pairs (most in a dilute flow) read and write nothing more.
-        if (neighbors.rowStart[i] == neighbors.rowStart[i + 1]) continue;
-        pairSumF_[i] = pairSumT_[i] = {};
-        const Vec3 xi = p.x[i];
-        const double ri = p.radius[i];
-        const std::size_t rowMaterial = p.material[i] * materials.size();
-        for (std::uint32_t k = neighbors.rowStart[i]; k < neighbors.rowStart[i + 1]; ++k) {
-          const std::uint32_t j = neighbors.partner[k];
-          Vec3 d = xi - p.x[j];
-          if constexpr (Periodic) d -= box.shift(neighbors.image[k]);
-          const double rsum = ri + p.radius[j];
+        if (rowStart[i] == rowStart[i + 1]) continue;
+        sumF[i] = sumT[i] = {};
+        const Vec3 xi = x[i];
+        const double ri = radius[i];
+        const std::size_t rowMaterial = material[i] * materialCount;
+        for (std::uint32_t k = rowStart[i]; k < rowStart[i + 1]; ++k) {
+          const std::uint32_t j = partner[k];
+          Vec3 d = xi - x[j];
+          if constexpr (Periodic) d -= box.shift(image[k]);
+          const double rsum = ri + radius[j];
           const bool contact = norm2(d) < rsum * rsum;
-          batch.offer(contact, static_cast<std::uint32_t>(i), j, k,
-                      static_cast<std::uint32_t>(rowMaterial + p.material[j]), d, neighbors.shear[k]);
-          if (!contact && neighbors.touching[k]) {  // contact lost: history ends
-            neighbors.touching[k] = 0;
-            neighbors.shear[k] = {};
-            pairForce[k] = {};
+          batch.offer(contact, static_cast<std::uint32_t>(i), j, k, static_cast<std::uint32_t>(rowMaterial + material[j]),
+                      d, shear[k]);
+          // A contact lost ends its history. One test on both flags, not a
+          // branch on `contact` (about half the listed pairs touch, so such a
+          // branch mispredicts; losing a contact is rare).
+          if ((touching[k] != 0) & !contact) [[unlikely]] {
+            touching[k] = 0;
+            shear[k] = {};
+            pf[k] = {};
           }
           if (batch.count == ContactBatch::kSize) flush();
         }

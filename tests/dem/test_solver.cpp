@@ -222,6 +222,29 @@ TEST(DemSolver, FieldsAndEnergies) {
   EXPECT_GT(e.front().second, 0.0);
 }
 
+// The critical step reuses a particle's step for the next one when mass,
+// weight, radius and material repeat (the hybrid particles of a PD body); a
+// smaller sphere after two equal ones must still set it, whatever the order.
+TEST(DemSolver, CriticalStepIsTheSmallestWhateverTheParticleOrder) {
+  const auto stepOf = [](const std::string& particles) {
+    DemSolver s;
+    Harness h;
+    h.setup(s, scene(R"(
+      contact: {normal: hertz, tangential: none, damping: none}
+      materials: [{name: m, density: 2500, young: 5.0e7, poisson: 0.25}]
+      particles:
+)" + particles));
+    return s.criticalDt();
+  };
+  const std::string big1 = "        - sphere: {position: [0, 0, 0], radius: 0.01, velocity: [1, 0, 0]}\n";
+  const std::string big2 = "        - sphere: {position: [0.05, 0, 0], radius: 0.01}\n";
+  const std::string small = "        - sphere: {position: [0.1, 0, 0], radius: 0.004}\n";
+  const double smallFirst = stepOf(small + big1 + big2), smallLast = stepOf(big1 + big2 + small);
+  EXPECT_GT(smallFirst, 0.0);
+  EXPECT_EQ(smallLast, smallFirst);
+  EXPECT_LT(smallFirst, stepOf(big1 + big2));
+}
+
 TEST(DemSolver, CriticalStepRefusedUnlessForced) {
   const std::string base = scene(R"(
       contact: {normal: linear, tangential: none, damping: none}

@@ -50,7 +50,7 @@ double restitutionOf(double gamma) {
 // t_c = 2 u_max / v * int_0^1 dx / sqrt(1 - x^(5/2)) = 2.9432 u_max / v.
 double HertzNormal::contactTime(double mEff, double rEff, double v, const PairMaterial& pm) const {
   const double umax = std::pow(15.0 * mEff * v * v / (16.0 * pm.eEff * std::sqrt(rEff)), 0.4);
-  const double integral = 0.4 * std::tgamma(0.4) * std::tgamma(0.5) / std::tgamma(0.9);
+  static const double integral = 0.4 * std::tgamma(0.4) * std::tgamma(0.5) / std::tgamma(0.9);
   return 2.0 * umax / v * integral;
 }
 

@@ -117,16 +117,37 @@ double particleCriticalStep(const DemSystem& s, std::size_t i, double vmax, bool
 
 double orZero(double dt) { return dt == std::numeric_limits<double>::max() ? 0.0 : dt; }
 
+/// The smallest particleCriticalStep over `indices` (each a particle index).
+/// A particle with the mass, weight, radius and material of the one before
+/// has its step: the hybrid particles of a PD body all do, and a Hertz step
+/// costs a power per material, which every tenth exchange of H5 paid for
+/// 11584 of them.
+template <class Indices>
+double smallestCriticalStep(const DemSystem& s, const Indices& indices, double vmax, bool withRayleigh) {
+  const Particles& p = s.particles;
+  double dt = std::numeric_limits<double>::max();
+  std::size_t last = p.size();
+  double lastDt = 0.0;
+  for (const std::size_t i : indices) {
+    const bool same = last < p.size() && p.mass[i] == p.mass[last] && p.weight[i] == p.weight[last] &&
+                      p.radius[i] == p.radius[last] && p.material[i] == p.material[last];
+    if (!same) lastDt = particleCriticalStep(s, i, vmax, withRayleigh);
+    last = i;
+    dt = std::min(dt, lastDt);
+  }
+  return dt;
+}
+
 }  // namespace
 
 double criticalTimeStep(const DemSystem& s) {
   const Particles& p = s.particles;
-  const double vmax = fastestSpeed(s);
-  double dt = std::numeric_limits<double>::max();
   // A driven particle (a hybrid PD particle, an indenter) is not integrated
   // here: its partners' own terms limit the step. All driven: no limit (0).
+  std::vector<std::size_t> free;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (!p.driven[i]) dt = std::min(dt, particleCriticalStep(s, i, vmax, true));
+    if (!p.driven[i]) free.push_back(i);
+  const double dt = smallestCriticalStep(s, free, fastestSpeed(s), true);
   const double bonds = bondCriticalStep(s);
   return orZero(bonds > 0.0 ? std::min(dt, bonds) : dt);
 }
@@ -152,10 +173,7 @@ double bondCriticalStep(const DemSystem& s) {
 }
 
 double criticalTimeStep(const DemSystem& s, std::span<const std::uint32_t> integratedElsewhere) {
-  const double vmax = fastestSpeed(s);
-  double dt = std::numeric_limits<double>::max();
-  for (std::uint32_t i : integratedElsewhere) dt = std::min(dt, particleCriticalStep(s, i, vmax, false));
-  return orZero(dt);
+  return orZero(smallestCriticalStep(s, integratedElsewhere, fastestSpeed(s), false));
 }
 
 FineTimeStep fineTimeStep(const DemSystem& s) {

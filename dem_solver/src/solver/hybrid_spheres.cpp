@@ -235,7 +235,8 @@ void HybridSpheres::checkStartOverlaps(const DemSystem& system, double tolerance
 
 void HybridSpheres::beginInterval(const DemSystem& system, double interval) {
   impulse_.assign(ids_.size(), {});
-  positionSum_.assign(ids_.size(), {});
+  // The mean position goes out with the stiffness only (fill).
+  if (wantStiffness_) positionSum_.assign(ids_.size(), {});
   // A watch set needs the time a state drifts over: the time between two
   // messages, known from the second on.
   if (pendingRebuild_ && cadence_ > 0.0 && watch_.available(system))
@@ -255,10 +256,9 @@ void HybridSpheres::accumulate(const DemSystem& system, double dt) {
 
 void HybridSpheres::endInterval(std::uint32_t steps, const DemSystem& system) {
   watch_.endInterval(system);
-  for (std::size_t k = 0; k < impulse_.size(); ++k) {
-    mean_[k] = (1.0 / steps) * impulse_[k];
-    meanPosition_[k] = (1.0 / steps) * positionSum_[k];
-  }
+  for (std::size_t k = 0; k < impulse_.size(); ++k) mean_[k] = (1.0 / steps) * impulse_[k];
+  if (wantStiffness_)
+    for (std::size_t k = 0; k < positionSum_.size(); ++k) meanPosition_[k] = (1.0 / steps) * positionSum_[k];
   averaged_ = true;
 }
 
