@@ -247,35 +247,39 @@ TEST(PdDemContactRun, WorkingAheadLeavesEverySeriesAsItWas) {
   EXPECT_EQ(aheadOf(plain), 0.0);
 }
 
-// A PD-DEM run resumed from a checkpoint continues bit for bit: DEM's
-// checkpoint says which of its particles are PD's hybrids, so the set PD
-// sends again drives them (before session 23 DEM added them a second time
-// and the restored copies drifted on with their last velocities).
-TEST(PdDemContactRun, AResumedRunContinuesBitForBit) {
+// Runs the short scene with `analysis` (empty: its Hertz one) and
+// checkpoints, resumes a copy from the earlier of the two kept checkpoints,
+// and compares the series and the report's error and figures bit for bit;
+// then removes the analysis state from another copy's checkpoint and expects
+// the resume refused, naming the analysis `kind`.
+void checkResume(const std::string& analysis, const std::string& kind) {
   PdDemRun r;
   const std::string schedule =
       "{kind: multirate, fine: block, dt: 2.0e-5, ratio: 1, order: coarse-first, end_time: 8.0e-3}";
-  // Without the Hertz analysis: a reference solution keeps no checkpoint and
-  // reads the hybrid set from PD's setup outputs, which a resume does not replay.
-  const auto done =
-      r.run(schedule, {"solvers.block.params.integrator=verlet", "output.checkpoint_interval=150"}, "none");
+  const std::vector<std::string> sets{"solvers.block.params.integrator=verlet", "output.checkpoint_interval=100"};
+  const auto done = r.run(schedule, sets, analysis);
   ASSERT_EQ(done.code, 0) << done.out << done.err;
   namespace fs = std::filesystem;
+  auto cutAt = [&](const fs::path& cut) {
+    fs::copy(r.dir / "run", cut, fs::copy_options::recursive);
+    std::vector<fs::path> kept;
+    for (const auto& e : fs::directory_iterator(cut / "checkpoints")) kept.push_back(e.path());
+    EXPECT_EQ(kept.size(), 2u);
+    std::sort(kept.begin(), kept.end(), [](const fs::path& a, const fs::path& b) {
+      return std::stoul(a.filename().string().substr(9)) < std::stoul(b.filename().string().substr(9));
+    });
+    fs::remove_all(kept.back());
+    return kept.front();
+  };
+  auto resume = [&](const fs::path& cut) {
+    std::vector<std::string> argv{binary("coupler"), "run", (r.dir / "scene.yaml").string(), "--resume", "--out",
+                                  cut.string(), "--no-progress"};
+    for (const auto& set : sets) argv.insert(argv.end(), {"--set", set});
+    return run(argv, 50.0);
+  };
   const auto cut = r.dir / "cut";
-  fs::copy(r.dir / "run", cut, fs::copy_options::recursive);
-  // The run keeps its last two checkpoints: resume from the earlier one.
-  std::vector<fs::path> kept;
-  for (const auto& e : fs::directory_iterator(cut / "checkpoints")) kept.push_back(e.path());
-  ASSERT_EQ(kept.size(), 2u);
-  std::sort(kept.begin(), kept.end(), [](const fs::path& a, const fs::path& b) {
-    return std::stoul(a.filename().string().substr(9)) < std::stoul(b.filename().string().substr(9));
-  });
-  fs::remove_all(kept[1]);
-  const std::string from = kept[0].filename().string().substr(9);
-  const auto resumed = run({binary("coupler"), "run", (r.dir / "scene.yaml").string(), "--resume", "--out",
-                            cut.string(), "--no-progress", "--set", "solvers.block.params.integrator=verlet", "--set",
-                            "output.checkpoint_interval=150"},
-                           50.0);
+  const std::string from = cutAt(cut).filename().string().substr(9);
+  const auto resumed = resume(cut);
   ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
   EXPECT_NE(resumed.err.find("resuming from exchange " + from), std::string::npos) << resumed.err;
   auto a = io::H5File::openReadOnly(r.dir / "run" / "coupler.h5");
@@ -287,6 +291,33 @@ TEST(PdDemContactRun, AResumedRunContinuesBitForBit) {
     ASSERT_EQ(x.size(), y.size()) << path;
     for (std::size_t k = 0; k < x.size(); ++k) ASSERT_EQ(x[k], y[k]) << path << " row " << k;
   }
+  // The error and every figure of the analysis, bit for bit.
+  const auto whole = r.report();
+  std::ifstream in(cut / "run_report.json");
+  const auto part = nlohmann::json::parse(in);
+  ASSERT_FALSE(whole["figures"].empty()) << kind;
+  EXPECT_EQ(part["figures"], whole["figures"]) << kind;
+  EXPECT_EQ(part["errors"], whole["errors"]) << kind;
+  // A checkpoint without the analysis state is refused before anything starts.
+  const auto old = r.dir / "old";
+  fs::remove(cutAt(old) / "analysis.bin");
+  const auto refused = resume(old);
+  EXPECT_EQ(refused.code, 3) << refused.out << refused.err;
+  EXPECT_NE(refused.err.find("holds no state of the analysis '" + kind + "'"), std::string::npos) << refused.err;
+}
+
+// A PD-DEM run resumed from a checkpoint continues bit for bit: DEM's
+// checkpoint says which of its particles are PD's hybrids, so the set PD
+// sends again drives them (before session 23 DEM added them a second time
+// and the restored copies drifted on with their last velocities). The Hertz
+// analysis continues from its checkpointed state (before session 26 it
+// started afresh at the resume and failed for want of PD's setup outputs).
+TEST(PdDemContactRun, AResumedRunContinuesBitForBit) { checkResume("", "hertz-indentation"); }
+
+// The force-displacement analysis (H2's) resumes with its record too.
+TEST(PdDemContactRun, AResumedForceDisplacementRunReportsTheUninterruptedFigures) {
+  checkResume("{reference: force-displacement, dem: spheres, zone: indenter, direction: [0, 0, -1]}",
+              "force-displacement");
 }
 
 TEST(PdDemContactRun, LinearisedForcesRunAndAnUnknownTreatmentIsRefused) {

@@ -4,6 +4,7 @@
 // report carries the scene's error metric against the beam-theory reference.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -52,6 +53,39 @@ TEST(SurfaceCouplingRun, ParticlesRestOnTheBeamAndTheMapBalancesTheContactForces
   // Both particles' weight (2 x 83.78 x 9.81 = 1643.7 N) rests on the surface at setup.
   EXPECT_NEAR(contact[2], -1643.7, 0.05 * 1643.7);
   EXPECT_GE(count.front(), 2.0);
+}
+
+// Resumed from its earlier checkpoint, the run reports the uninterrupted
+// run's error and figures: the reference keeps its time integral, start
+// positions and drifts in the checkpoint (before session 26 it restarted at
+// the resume, measuring drift from the resumed positions).
+TEST(SurfaceCouplingRun, AResumedRunReportsTheUninterruptedRunsError) {
+  C1Run c1;
+  const auto done = c1.run({"--set", "output.checkpoint_interval=10"});
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  namespace fs = std::filesystem;
+  const auto cut = c1.dir / "cut";
+  fs::copy(c1.dir / "run", cut, fs::copy_options::recursive);
+  std::vector<fs::path> kept;
+  for (const auto& e : fs::directory_iterator(cut / "checkpoints")) kept.push_back(e.path());
+  ASSERT_EQ(kept.size(), 2u);
+  std::sort(kept.begin(), kept.end(), [](const fs::path& a, const fs::path& b) {
+    return std::stoul(a.filename().string().substr(9)) < std::stoul(b.filename().string().substr(9));
+  });
+  fs::remove_all(kept[1]);
+  const auto resumed = run({binary("coupler"), "run", sourcePath("tests/coupling/c1_short.yaml"), "--resume", "--out",
+                            cut.string(), "--no-progress", "--set", "output.checkpoint_interval=10"},
+                           240.0);
+  ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
+  EXPECT_NE(resumed.err.find("resuming from exchange " + kept[0].filename().string().substr(9)), std::string::npos)
+      << resumed.err;
+  std::ifstream in(cut / "run_report.json");
+  const auto part = nlohmann::json::parse(in);
+  const auto whole = c1.report();
+  ASSERT_FALSE(whole["errors"].empty());
+  EXPECT_GT(whole["errors"][0]["value"].get<double>(), 0.0);
+  EXPECT_EQ(part["errors"], whole["errors"]);
+  EXPECT_EQ(part["figures"], whole["figures"]);
 }
 
 TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {

@@ -3,6 +3,7 @@
 // it. Both cut to 0.03 s (the wave has passed the first two stations).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -78,6 +79,36 @@ TEST(WaveStations, DrivenPulseTheWorkIsTheInputEnergy) {
   const auto coupled = report(dir / "coupled");
   EXPECT_NEAR(coupled["figures"]["input_energy_J"].get<double>(), input, 1e-9 * input);  // same drive, same lattice
   EXPECT_LT(coupled["errors"][0]["value"].get<double>(), 0.02);
+  fs::remove_all(dir);
+}
+
+// Resumed from its earlier checkpoint, the full-DEM run reports the
+// uninterrupted run's figures: the stations' record, initial energy and
+// drive work come back from the checkpoint's analysis state.
+TEST(WaveStations, AResumedRunReportsTheUninterruptedFigures) {
+  const auto dir = freshDirectory("c2-resume");
+  const std::vector<std::string> sets{"--set", "schedule.end_time=0.03", "--set", "output.checkpoint_interval=60"};
+  auto argv = [&](const fs::path& out, bool resume) {
+    std::vector<std::string> a{binary("coupler"), "run", sourcePath("configs/c2/wave_full_dem_1p_pulse.yaml"),
+                               "--out", out.string(), "--no-progress"};
+    if (resume) a.push_back("--resume");
+    a.insert(a.end(), sets.begin(), sets.end());
+    return a;
+  };
+  auto f = run(argv(dir / "whole", false), 60.0);
+  ASSERT_EQ(f.code, 0) << f.err;
+  fs::copy(dir / "whole", dir / "cut", fs::copy_options::recursive);
+  std::vector<fs::path> kept;
+  for (const auto& e : fs::directory_iterator(dir / "cut" / "checkpoints")) kept.push_back(e.path());
+  ASSERT_EQ(kept.size(), 2u);
+  std::sort(kept.begin(), kept.end());  // exchange-120 before exchange-180
+  fs::remove_all(kept[1]);
+  f = run(argv(dir / "cut", true), 60.0);
+  ASSERT_EQ(f.code, 0) << f.err;
+  EXPECT_NE(f.err.find("resuming from exchange 120"), std::string::npos) << f.err;
+  const auto whole = report(dir / "whole"), part = report(dir / "cut");
+  EXPECT_GT(whole["figures"]["input_energy_J"].get<double>(), 1.5);
+  EXPECT_EQ(part["figures"], whole["figures"]);
   fs::remove_all(dir);
 }
 

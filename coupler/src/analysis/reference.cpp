@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 
 namespace cosim::coupler {
 
@@ -15,6 +16,18 @@ proto::ParticleStates::Reader zoneStates(const Observation& o, const std::string
       if (s.getZone() == zone) return s;
   throw std::runtime_error("analysis: solver '" + solver + "' sent no particle states for zone '" + zone +
                            "' (list it in that solver's params.zones)");
+}
+
+void TimeRecord::save(util::BinaryWriter& out) const {
+  out.vec(times), out.vec(values);
+  out.pod(static_cast<std::uint64_t>(perTime));
+}
+
+void TimeRecord::restore(util::BinaryReader& in) {
+  times = in.vec<double>("analysis record times");
+  values = in.vec<double>("analysis record values");
+  perTime = static_cast<std::size_t>(in.pod<std::uint64_t>("analysis record width"));
+  if (values.size() != times.size() * perTime) in.fail("analysis record", "values do not fill its times");
 }
 
 double TimeRecord::at(std::size_t c, double t) const {

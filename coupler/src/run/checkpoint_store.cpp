@@ -135,4 +135,6 @@ fs::path CheckpointStore::solverLastReply(const fs::path& dir, const std::string
   return dir / (solver + ".last.bin");
 }
 
+fs::path CheckpointStore::analysisState(const fs::path& dir) { return dir / "analysis.bin"; }
+
 }  // namespace cosim::coupler

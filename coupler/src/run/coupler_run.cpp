@@ -15,6 +15,7 @@
 #include "cosim/coupler/launch/process_group.hpp"
 #include "cosim/coupler/run/checkpoint_store.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/util/cpu_affinity.hpp"
 #include "cosim/util/host_cpu_time.hpp"
 #include "cosim/wire/arrays.hpp"
@@ -198,6 +199,13 @@ class CouplerRun final : public ExchangeDriver {
     if (CheckpointStore::sceneText(*resumeFrom_) != scene_.text)
       throw Refused("cannot resume: " + scene_.file + " differs from the scene the run in " + runDir_.string() +
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
+    // A reference solution continues from what it had gathered up to the
+    // checkpoint; without that state (a checkpoint of a coupler before
+    // session 26) it would see only the exchanges after the resume.
+    if (scene_.reference && !fs::exists(CheckpointStore::analysisState(resumeFrom_->dir)))
+      throw Refused("cannot resume: " + resumeFrom_->dir.string() + " holds no state of the analysis '" +
+                    scene_.reference->kind() + "' (" + CheckpointStore::analysisState(resumeFrom_->dir).filename().string() +
+                    "), which would then cover only the exchanges after the checkpoint; start the run again");
     h5_.emplace(io::H5File::openForAppend(runDir_ / "coupler.h5"));
     series_.emplace(*h5_, "/series");
     // Each series as it stood at the checkpoint; older checkpoints: the setup
@@ -218,6 +226,7 @@ class CouplerRun final : public ExchangeDriver {
     }
     session_->awaitReplies(pending);
     for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
+    if (scene_.reference) saveAnalysis(CheckpointStore::analysisState(dir));
     series_->flush();
     checkpoints_.commit(exchange_, time_, scene_.text, series_->rowCounts());
   }
@@ -245,7 +254,28 @@ class CouplerRun final : public ExchangeDriver {
     }
     exchange_ = completed_ = point.exchange;
     time_ = point.time;
+    if (scene_.reference) restoreAnalysis(CheckpointStore::analysisState(point.dir));
     runCouplings({names_.begin(), names_.end()}, true);
+  }
+
+  static constexpr std::uint64_t kAnalysisMagic = 0x31534c414e41534f;  // "OSANALS1"
+
+  void saveAnalysis(const fs::path& file) const {
+    std::ofstream out(file, std::ios::binary);
+    util::BinaryWriter w(out);
+    w.pod(kAnalysisMagic);
+    scene_.reference->save(w);
+    if (!out) throw std::runtime_error(file.string() + ": cannot write the analysis state");
+  }
+
+  /// The reference solution continues from what it had gathered up to the
+  /// checkpoint (prepareResume made sure the file is there).
+  void restoreAnalysis(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    util::BinaryReader r(in, file.string());
+    if (r.pod<std::uint64_t>("analysis state") != kAnalysisMagic) r.fail("analysis state", "not an analysis record");
+    scene_.reference->restore(r);
+    if (in.peek() != std::char_traits<char>::eof()) r.fail("analysis state", "bytes left after the record");
   }
 
   /// Where a started peer may run, as the report shows it; what went wrong otherwise.

@@ -18,6 +18,7 @@
 #include "cosim/coupler/analysis/reference.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::coupler {
@@ -82,6 +83,24 @@ class CantileverPointLoad final : public Reference {
   }
 
   bool finished() const override { return finished_; }
+
+  void save(util::BinaryWriter& out) const override {
+    out.vec(x0_), out.vec(drift_);
+    for (double v : {load_, initialPotential_, initialEnergy_, startTime_, lastTime_, lastError_, errorIntegral_,
+                     maxEnergy_, fallOffTime_})
+      out.pod(v);
+    out.pod(static_cast<std::uint8_t>(coupled_)), out.pod(static_cast<std::uint8_t>(finished_));
+  }
+  void restore(util::BinaryReader& in) override {
+    x0_ = in.vec<double>("cantilever start positions");
+    drift_ = in.vec<double>("cantilever drifts");
+    if (drift_.size() * 3 != x0_.size()) in.fail("cantilever drifts", "not one per particle");
+    for (double* v : {&load_, &initialPotential_, &initialEnergy_, &startTime_, &lastTime_, &lastError_,
+                      &errorIntegral_, &maxEnergy_, &fallOffTime_})
+      *v = in.pod<double>("cantilever sums");
+    coupled_ = in.pod<std::uint8_t>("cantilever flags") != 0;
+    finished_ = in.pod<std::uint8_t>("cantilever flags") != 0;
+  }
 
   void conclude(RunReport& report) const override {
     const double span = lastTime_ - startTime_;

@@ -18,6 +18,7 @@
 #include "cosim/coupler/analysis/reference.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::coupler {
@@ -67,6 +68,18 @@ class ForceDisplacement final : public Reference {
       o.series->append("analysis/displacement", d);
       o.series->append("analysis/force", force);
     }
+  }
+
+  void save(util::BinaryWriter& out) const override {
+    out.vec(start_);
+    forces_.save(out);
+    out.pod(lastDisplacement_), out.pod(maxForce_);
+  }
+  void restore(util::BinaryReader& in) override {
+    start_ = in.vec<double>("force-displacement start positions");
+    forces_.restore(in);
+    lastDisplacement_ = in.pod<double>("force-displacement figures");
+    maxForce_ = in.pod<double>("force-displacement figures");
   }
 
   void conclude(RunReport& report) const override {

@@ -32,6 +32,7 @@
 #include "cosim/coupler/analysis/reference.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::coupler {
@@ -104,6 +105,22 @@ class HertzIndentation final : public Reference {
   }
 
   bool finished() const override { return finished_; }
+
+  void save(util::BinaryWriter& out) const override {
+    out.pod(radius_), out.pod(originZ_), out.pod(lastBottom_), out.pod(maxForce_), out.pod(maxImbalance_);
+    for (bool b : {touched_, haveSurface_, hybridSeen_, finished_}) out.pod(static_cast<std::uint8_t>(b));
+    out.vec(samples_);
+  }
+  void restore(util::BinaryReader& in) override {
+    radius_ = in.pod<double>("hertz-indentation sphere radius");
+    originZ_ = in.pod<std::array<double, 3>>("hertz-indentation origins");
+    lastBottom_ = in.pod<double>("hertz-indentation state");
+    maxForce_ = in.pod<double>("hertz-indentation state");
+    maxImbalance_ = in.pod<double>("hertz-indentation state");
+    for (bool* b : {&touched_, &haveSurface_, &hybridSeen_, &finished_})
+      *b = in.pod<std::uint8_t>("hertz-indentation flags") != 0;
+    samples_ = in.vec<Sample>("hertz-indentation samples");
+  }
 
   void conclude(RunReport& report) const override {
     double worst = 0.0;

@@ -21,6 +21,7 @@
 #include "cosim/coupler/analysis/reference.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 
 namespace cosim::coupler {
@@ -59,6 +60,24 @@ class WaveStations final : public Reference {
     finalEnergy_ = e;
     demWork_ = sumEnergies(o.energies, dem_, {"drive_work"});
     if (o.series) o.series->append("analysis/station_velocity", sample_);
+  }
+
+  void save(util::BinaryWriter& out) const override {
+    std::vector<std::uint64_t> members(members_.begin(), members_.end());
+    out.vec(members);
+    record_.save(out);
+    out.pod(initialEnergy_), out.pod(finalEnergy_), out.pod(demWork_);
+  }
+  void restore(util::BinaryReader& in) override {
+    const auto members = in.vec<std::uint64_t>("wave station particles");
+    if (members.size() * 3 != stations_.size()) in.fail("wave station particles", "not one per station of the scene");
+    members_.assign(members.begin(), members.end());
+    sample_.assign(members_.size(), 0.0);
+    record_.restore(in);
+    if (record_.perTime != members_.size()) in.fail("wave station record", "not one column per station");
+    initialEnergy_ = in.pod<double>("wave station energies");
+    finalEnergy_ = in.pod<double>("wave station energies");
+    demWork_ = in.pod<double>("wave station energies");
   }
 
   void conclude(RunReport& report) const override {

@@ -18,6 +18,10 @@
 namespace cosim::io {
 class SeriesWriter;
 }
+namespace cosim::util {
+class BinaryWriter;
+class BinaryReader;
+}
 namespace cosim::config {
 class MapReader;
 }
@@ -49,6 +53,11 @@ class Reference {
   virtual bool usesEnergies() const { return true; }
   /// Adds the error metric (first) and the scene's figures to the report.
   virtual void conclude(RunReport& report) const = 0;
+  /// What it has gathered so far, into a checkpoint, and back on a resume:
+  /// a resumed run observes only the exchanges after its checkpoint, so its
+  /// error and figures are the uninterrupted run's only with this state.
+  virtual void save(util::BinaryWriter& out) const = 0;
+  virtual void restore(util::BinaryReader& in) = 0;
 };
 
 /// The particle states a DEM solver sent for one of its zones (params.zones);
@@ -65,6 +74,8 @@ struct TimeRecord {
   }
   /// Column c at time t, linear between the recorded times, held beyond them.
   double at(std::size_t c, double t) const;
+  void save(util::BinaryWriter& out) const;
+  void restore(util::BinaryReader& in);
 };
 
 /// The error of `record` against the same dataset of a stored run (its

@@ -1,7 +1,8 @@
 #pragma once
 // The run's checkpoints: checkpoints/exchange-<k>/ holds every solver's own
 // checkpoint file (<solver>.chk), each solver's last reply (<solver>.last.bin,
-// from which the couplings restage the next inputs) and the scene text. The
+// from which the couplings restage the next inputs), the reference solution's
+// state (analysis.bin) and the scene text. The
 // directory becomes visible under its final name only once complete, so a
 // crash while checkpointing never leaves a half checkpoint to resume from.
 #include <cstdint>
@@ -37,6 +38,8 @@ class CheckpointStore {
 
   static std::filesystem::path solverCheckpoint(const std::filesystem::path& dir, const std::string& solver);
   static std::filesystem::path solverLastReply(const std::filesystem::path& dir, const std::string& solver);
+  /// The scene's reference solution's state (analysis.bin), when it has one.
+  static std::filesystem::path analysisState(const std::filesystem::path& dir);
 
  private:
   std::filesystem::path root_;
