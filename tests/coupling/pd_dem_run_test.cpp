@@ -260,17 +260,7 @@ void checkResume(const std::string& analysis, const std::string& kind) {
   const auto done = r.run(schedule, sets, analysis);
   ASSERT_EQ(done.code, 0) << done.out << done.err;
   namespace fs = std::filesystem;
-  auto cutAt = [&](const fs::path& cut) {
-    fs::copy(r.dir / "run", cut, fs::copy_options::recursive);
-    std::vector<fs::path> kept;
-    for (const auto& e : fs::directory_iterator(cut / "checkpoints")) kept.push_back(e.path());
-    EXPECT_EQ(kept.size(), 2u);
-    std::sort(kept.begin(), kept.end(), [](const fs::path& a, const fs::path& b) {
-      return std::stoul(a.filename().string().substr(9)) < std::stoul(b.filename().string().substr(9));
-    });
-    fs::remove_all(kept.back());
-    return kept.front();
-  };
+  auto cutAt = [&](const fs::path& cut) { return cutBackToEarlierCheckpoint(r.dir / "run", cut); };
   auto resume = [&](const fs::path& cut) {
     std::vector<std::string> argv{binary("coupler"), "run", (r.dir / "scene.yaml").string(), "--resume", "--out",
                                   cut.string(), "--no-progress"};

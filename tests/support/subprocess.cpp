@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
@@ -118,6 +119,20 @@ std::filesystem::path freshDirectory(const std::string& prefix) {
   std::string templ = (std::filesystem::temp_directory_path() / (prefix + "-XXXXXX")).string();
   if (::mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
   return templ;
+}
+
+std::filesystem::path cutBackToEarlierCheckpoint(const std::filesystem::path& runDir,
+                                                 const std::filesystem::path& cut) {
+  namespace fs = std::filesystem;
+  fs::copy(runDir, cut, fs::copy_options::recursive);
+  std::vector<std::pair<unsigned long, fs::path>> kept;  // by exchange number, not by name
+  for (const auto& e : fs::directory_iterator(cut / "checkpoints"))
+    kept.emplace_back(std::stoul(e.path().filename().string().substr(9)), e.path());
+  if (kept.size() != 2)
+    throw std::runtime_error(cut.string() + ": the run kept " + std::to_string(kept.size()) + " checkpoints, not 2");
+  std::sort(kept.begin(), kept.end());
+  fs::remove_all(kept[1].second);
+  return kept[0].second;
 }
 
 std::string binary(const std::string& name) {

@@ -53,6 +53,13 @@ std::vector<pid_t> processesMentioning(const std::string& needle);
 /// A fresh, short temporary directory (removed by the caller when wanted).
 std::filesystem::path freshDirectory(const std::string& prefix);
 
+/// Copies a finished run's directory to `cut` and removes the newer of the
+/// two checkpoints the run kept, so that `--resume` on `cut` continues from
+/// the earlier one; returns that checkpoint's directory (exchange-<k>).
+/// Throws unless the run kept exactly two.
+std::filesystem::path cutBackToEarlierCheckpoint(const std::filesystem::path& runDir,
+                                                 const std::filesystem::path& cut);
+
 /// A binary built next to the tests ($COSIM_BIN_DIR/name).
 std::string binary(const std::string& name);
 /// A file in the source tree ($COSIM_SOURCE_DIR/relative).
