@@ -569,6 +569,27 @@ TEST(PdSolverEnergyBalance, AStepAboveTheStableLimitIsStoppedWhileValuesAreFinit
   EXPECT_NE(setupError(scene("      energy_tolerance: -1\n")).find("energy_tolerance"), std::string::npos);
 }
 
+// With the energy check off, a step far above the stable limit runs until
+// the state overflows: the finite check after the advance stops it, naming
+// the particle and its body.
+TEST(PdSolverAdvance, ANonFiniteStateIsStoppedNamingTheParticle) {
+  Fixture f(scene("      force: true\n      energy_tolerance: 0\n"));
+  const double dt = 3.0 * f.solver.criticalDt();
+  const auto id = f.out.getRoot<CouplingData>().asReader().getHybridParticles()[0].getIds()[0];
+  std::string message;
+  std::size_t k = 1;
+  for (; k <= 20000 && message.empty(); ++k) {
+    try {
+      advance(f.solver, 1, dt, id, k < 20 ? 1.0 : 0.0, 0.0, false);
+    } catch (const cosim::wire::SolverError& e) {
+      message = e.what();
+    }
+  }
+  std::printf("[measured] LPS bar at 3 x the critical step, no energy check: stopped at advance %zu\n", k - 1);
+  EXPECT_NE(message.find("non-finite displacement or velocity of particle"), std::string::npos) << message;
+  EXPECT_NE(message.find("(body '"), std::string::npos) << message;
+}
+
 TEST(PdSolverAdvance, InputsHeldOrInterpolatedOverSubSteps) {
   // Internal forces cancel, so the body's momentum change is the impulse of
   // the hybrid force: n dt F0 when held, n dt (F0 + F1) / 2 when interpolated.

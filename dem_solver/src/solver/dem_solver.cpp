@@ -1,7 +1,6 @@
 #include "cosim/dem/solver/dem_solver.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +9,7 @@
 
 #include "cosim/dem/io/checkpoint.hpp"
 #include "cosim/dem/measure/measures.hpp"
+#include "cosim/util/finite.hpp"
 #include "cosim/util/weight_profile.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/coupling_forces.hpp"
@@ -324,10 +324,8 @@ void DemSolver::checkFinite() const {
     if (norm2(g) > 0.0) s << ", or params.gravity [" << g.x << ", " << g.y << ", " << g.z << "] m/s^2 too large";
     return s.str();
   };
-  // A branch-free scan first (an infinity or NaN has every exponent bit set),
-  // so the usual finite state costs one vectorised pass.
-  constexpr std::uint64_t exponent = 0x7ff0000000000000;
-  auto nonFinite = [](double value) { return (std::bit_cast<std::uint64_t>(value) & exponent) == exponent; };
+  // A branch-free scan first (util/finite.hpp); the search below names the particle.
+  using util::nonFinite;
   bool any = false;
   for (std::size_t i = 0; i < p.size(); ++i)
     any |= nonFinite(p.x[i].x) | nonFinite(p.x[i].y) | nonFinite(p.x[i].z) | nonFinite(p.v[i].x) |

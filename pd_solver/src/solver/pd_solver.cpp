@@ -12,6 +12,7 @@
 #include "cosim/pd/hybrid.hpp"
 #include "cosim/pd/hybrid_watch.hpp"
 #include "cosim/util/binary_record.hpp"
+#include "cosim/util/finite.hpp"
 #include "cosim/pd/pd_solver.hpp"
 #include "cosim/wire/arrays.hpp"
 
@@ -257,6 +258,11 @@ bool PdSolver::workAhead() {
 
 void PdSolver::checkFinite() const {
   const auto& p = system_.particles();
+  // A branch-free scan first (util/finite.hpp); the search below names the particle.
+  bool any = false;
+  for (std::size_t q = 0; q < p.displacement.size(); ++q)
+    any |= util::nonFinite(p.displacement[q]) | util::nonFinite(p.velocity[q]);
+  if (!any) return;
   for (std::size_t q = 0; q < p.displacement.size(); ++q)
     if (!std::isfinite(p.displacement[q]) || !std::isfinite(p.velocity[q]))
       throw SolverError(Error::Code::SOLVER_FAILURE,
