@@ -249,10 +249,11 @@ TEST(PdDemContactRun, WorkingAheadLeavesEverySeriesAsItWas) {
 
 // Runs the short scene with `analysis` (empty: its Hertz one) and
 // checkpoints, resumes a copy from the earlier of the two kept checkpoints,
-// and compares the series and the report's error and figures bit for bit;
+// and compares the series (the analysis's own `series` among them) and the
+// report's error and figures bit for bit;
 // then removes the analysis state from another copy's checkpoint and expects
 // the resume refused, naming the analysis `kind`.
-void checkResume(const std::string& analysis, const std::string& kind) {
+void checkResume(const std::string& analysis, const std::string& kind, const std::string& series) {
   PdDemRun r;
   const std::string schedule =
       "{kind: multirate, fine: block, dt: 2.0e-5, ratio: 1, order: coarse-first, end_time: 8.0e-3}";
@@ -276,7 +277,7 @@ void checkResume(const std::string& analysis, const std::string& kind) {
   auto b = io::H5File::openReadOnly(cut / "coupler.h5");
   for (const std::string path : {"/series/time", "/series/contact/hybrid_force", "/series/contact/loaded_particles",
                                  "/series/block/energy/strain", "/series/block/energy/kinetic",
-                                 "/series/spheres/energy/elastic", "/series/spheres/energy/kinetic"}) {
+                                 "/series/spheres/energy/elastic", "/series/spheres/energy/kinetic", series.c_str()}) {
     const auto x = a.readArray(path), y = b.readArray(path);
     ASSERT_EQ(x.size(), y.size()) << path;
     for (std::size_t k = 0; k < x.size(); ++k) ASSERT_EQ(x[k], y[k]) << path << " row " << k;
@@ -302,12 +303,14 @@ void checkResume(const std::string& analysis, const std::string& kind) {
 // and the restored copies drifted on with their last velocities). The Hertz
 // analysis continues from its checkpointed state (before session 26 it
 // started afresh at the resume and failed for want of PD's setup outputs).
-TEST(PdDemContactRun, AResumedRunContinuesBitForBit) { checkResume("", "hertz-indentation"); }
+TEST(PdDemContactRun, AResumedRunContinuesBitForBit) {
+  checkResume("", "hertz-indentation", "/series/analysis/depth_force_pd_hertz");
+}
 
 // The force-displacement analysis (H2's) resumes with its record too.
 TEST(PdDemContactRun, AResumedForceDisplacementRunReportsTheUninterruptedFigures) {
   checkResume("{reference: force-displacement, dem: spheres, zone: indenter, direction: [0, 0, -1]}",
-              "force-displacement");
+              "force-displacement", "/series/analysis/force");
 }
 
 TEST(PdDemContactRun, LinearisedForcesRunAndAnUnknownTreatmentIsRefused) {
