@@ -11,6 +11,20 @@ gmh_prepare_cell() {
   grep -E "^prepared" "$work/prepare.log" || true
 }
 
+# gmh_prepare_variants COUNT N [dem_prepare_cell options...]: N more cells with
+# seeds 2 .. N + 1, $work/cell_s<seed>.ckpt; prints them as a YAML list
+# (unit_cells.variants) on stdout.
+gmh_prepare_variants() {
+  local count=$1 n=$2 list="" seed
+  shift 2
+  for ((seed = 2; seed <= n + 1; ++seed)); do
+    "$bin/dem_prepare_cell" --out "$work/cell_s$seed" --count "$count" --seed "$seed" "$@" > "$work/prepare_s$seed.log"
+    grep -E "^prepared" "$work/prepare_s$seed.log" | sed "s/^/seed $seed: /" >&2 || true
+    list+="${list:+, }$work/cell_s$seed.ckpt"
+  done
+  echo "[$list]"
+}
+
 # gmh_run SCENE [coupler run options...]: runs the scene into $work/run, log in
 # $work/run.log; a run that stops early (a cell over its relaxation budget) is
 # reported and its output kept for the analysis. Prints the wall time, the

@@ -14,7 +14,9 @@
 # L4_REMOVE (default 25, Liu's count) spheres taken out of the weakened cell:
 # 25 of Liu's 4096 is 0.6 %, of a 500-sphere cell 5 %; 3 keeps Liu's share;
 # L4_NONLOCAL (none) the gmh coupling's nonlocal map, e.g.
-# "{radius: 0.0135, local_fraction: 0.15}" (Liu Eqs. 58-59).
+# "{radius: 0.0135, local_fraction: 0.15}" (Liu Eqs. 58-59);
+# L4_ON_FAILURE (stop) the workers' on_failure: continue accepts a cell that
+# cannot relax (e.g. one that lost its skeleton) as it stands and goes on.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -38,7 +40,9 @@ gmh_run "$root/configs/gmh/l4_simple_shear.yaml" --set "schedule.coarse_steps=$s
   --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
   --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" \
   --set "solvers.cells_b.params.unit_cells.weakened.file=$work/cell_weak.ckpt" \
-  ${L4_NONLOCAL:+--set "couplings.cells.nonlocal=$L4_NONLOCAL"}
+  ${L4_NONLOCAL:+--set "couplings.cells.nonlocal=$L4_NONLOCAL"} \
+  ${L4_ON_FAILURE:+--set "solvers.cells_a.params.unit_cells.on_failure=$L4_ON_FAILURE"} \
+  ${L4_ON_FAILURE:+--set "solvers.cells_b.params.unit_cells.on_failure=$L4_ON_FAILURE"}
 t2=$(date +%s)
 /usr/bin/python3 "$root/bench/gmh/l4_shear_band.py" "$work/run" --at "$at"
 echo "(preparation $((t1 - t0)) s, GMH run $((t2 - t1)) s; files in $work)"

@@ -13,7 +13,10 @@
 # The top moves at 0.4 m/s whatever the step count: 5e-5 axial strain per step.
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
 # Environment: COSIM_BIN (default build/bin), L5_WORK (default a fresh /tmp dir),
-# L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15).
+# L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15), L5_VARIANTS (0)
+# N more cells prepared with seeds 2 .. N + 1, each element's cell picked from
+# the N + 1 by its id (unit_cells.variants), L5_ON_FAILURE (stop) the workers'
+# on_failure, L5_MAX_STEPS (the scene's 200000) their relaxation budget.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -32,6 +35,12 @@ work=${L5_WORK:-$(mktemp -d /tmp/gmh-l5.XXXXXX)}
 mkdir -p "$work"
 source "$root/bench/gmh/gmh_scene.sh"
 gmh_prepare_cell "$count" --damping 0
+variants=()
+if [[ "${L5_VARIANTS:-0}" != 0 ]]; then
+  [[ "$L5_VARIANTS" =~ ^[1-9][0-9]*$ ]] || { echo "l5_biaxial.sh: L5_VARIANTS must be a whole number (got '$L5_VARIANTS')" >&2; exit 2; }
+  list=$(gmh_prepare_variants "$count" "$L5_VARIANTS" --damping 0)
+  variants=(--set "solvers.cells_a.params.unit_cells.variants=$list" --set "solvers.cells_b.params.unit_cells.variants=$list")
+fi
 runs=()
 for mesh in $meshes; do
   nx=${mesh%x*}
@@ -48,7 +57,11 @@ for mesh in $meshes; do
       --set "solvers.cells_a.params.unit_cells.count=$half" \
       --set "solvers.cells_b.params.unit_cells.count=$((cells - half))" \
       --set "solvers.cells_a.params.unit_cells.file=$work/cell.ckpt" \
-      --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}"
+      --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}" "${variants[@]}" \
+      ${L5_ON_FAILURE:+--set "solvers.cells_a.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
+      ${L5_ON_FAILURE:+--set "solvers.cells_b.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
+      ${L5_MAX_STEPS:+--set "solvers.cells_a.params.unit_cells.max_steps=$L5_MAX_STEPS"} \
+      ${L5_MAX_STEPS:+--set "solvers.cells_b.params.unit_cells.max_steps=$L5_MAX_STEPS"}
     rm -rf "${work:?}/$mode-$mesh"  # a reused L5_WORK: mv would nest the new run inside the old one
     mv "$work/run" "$work/$mode-$mesh"
     mv "$work/run.log" "$work/$mode-$mesh.log"

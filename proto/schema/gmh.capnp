@@ -20,6 +20,11 @@ struct UnitCellResults {
   coordinationNumbers @3 :List(Float64);
   unbalancedForceIndices @4 :List(Float64); # Liu Eq. 57
   relaxationSteps @5 :List(UInt32);
+  failed @6 :List(Bool);                # per cell: the job ended outside the worker's relaxation settings
+                                        # (I_uf above the tolerance after the budget, or Z below
+                                        # min_coordination) and the stress is the cell's as it stands.
+                                        # Only a worker with on_failure: continue answers such a job;
+                                        # otherwise the advance fails naming the cells. Empty: none failed.
 }
 
 # The NamedArray every worker reply carries (Liu 2016 Eqs. 63-66): [relaxation

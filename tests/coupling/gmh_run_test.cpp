@@ -136,6 +136,40 @@ TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
   EXPECT_GT(figures["fine_damping_fraction"].get<double>(), 0.0);
 }
 
+TEST_F(GmhRun, FailedCellsStopTheRunOrAreAcceptedAndReported) {
+  // A relaxation tolerance no job can meet within 5 steps: every loaded job fails.
+  const std::string path = scene(4);
+  std::vector<std::string> strict;
+  for (const char* w : {"cells_a", "cells_b"})
+    for (const char* kv : {"tolerance=1.0e-9", "max_steps=5"})
+      strict.insert(strict.end(), {"--set", std::string("solvers.") + w + ".params.unit_cells." + kv});
+  // on_failure: stop (the default): the first coarse step stops the run naming the cells.
+  std::vector<std::string> args{binary("coupler"), "run", path, "--no-progress"};
+  args.insert(args.end(), strict.begin(), strict.end());
+  const auto stopped = run(args, 120.0);
+  EXPECT_NE(stopped.code, 0);
+  EXPECT_NE((stopped.out + stopped.err).find("unit cells failed: cell 0: I_uf"), std::string::npos) << stopped.out << stopped.err;
+  // on_failure: continue: the run completes, each failure is counted per step
+  // and in the report, and the log names the cells with their numbers.
+  for (const char* w : {"cells_a", "cells_b"})
+    args.insert(args.end(), {"--set", std::string("solvers.") + w + ".params.unit_cells.on_failure=continue"});
+  const auto f = run(args, 120.0);
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  const std::string log = f.out + f.err;
+  for (const char* cell : {"unit cell 0 failed its job", "unit cell 1 failed its job"})
+    EXPECT_NE(log.find(cell), std::string::npos) << log;
+  EXPECT_NE(log.find("I_uf"), std::string::npos) << log;
+  auto h5 = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
+  EXPECT_EQ(h5.readArray("/series/cells/failed_cells"), (std::vector<double>{0, 2, 2, 2, 2}));
+  std::ifstream in(dir_ / "run" / "run_report.json");
+  const auto report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["figures"]["failed_cell_jobs"].get<double>(), 8.0);
+  EXPECT_EQ(report["figures"]["failed_cells"].get<double>(), 2.0);
+  bool warned = false;
+  for (const auto& w : report["warnings"]) warned = warned || w.get<std::string>().find("8 unit-cell jobs of 2 cells") != std::string::npos;
+  EXPECT_TRUE(warned) << report["warnings"].dump();
+}
+
 TEST_F(GmhRun, AResumedRunContinuesBitForBit) {
   // A checkpoint between FEM's predict and correct (its split step, the
   // workers' cells, the coupling's owners) and the coupler's series, whose
@@ -170,6 +204,14 @@ TEST_F(GmhRun, AResumedRunContinuesBitForBit) {
     EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(double))) << series;
   }
   EXPECT_EQ(a.readArray("/series/cells/mean_pressure").size(), 11u);
+  // The report says where the run resumed, since its times cover only what followed.
+  std::ifstream in(dir_ / "cut" / "run_report.json");
+  const auto report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["resumed_from"]["exchange"].get<std::uint64_t>(), 8u);
+  EXPECT_GT(report["resumed_from"]["time_s"].get<double>(), 0.0);
+  EXPECT_NE(resumed.out.find("resumed       from exchange 8"), std::string::npos) << resumed.out;
+  std::ifstream whole_in(dir_ / "run" / "run_report.json");
+  EXPECT_FALSE(nlohmann::json::parse(whole_in).contains("resumed_from"));
 }
 
 TEST_F(GmhRun, NonlocalIncrementsOfAUniformCompressionAreTheLocalOnes) {

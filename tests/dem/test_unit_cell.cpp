@@ -220,6 +220,50 @@ TEST_F(DemUnitCell, CellThatCannotRelaxIsReportedWithItsId) {
   }
 }
 
+TEST_F(DemUnitCell, OnFailureContinueReturnsTheFailedCellFlagged) {
+  // The same failing job as above, with on_failure: continue: the advance
+  // answers, cell 1's result is flagged failed with its unrelaxed I_uf and
+  // its stress as it stands, cell 0 (no load, relaxed) is not flagged; the
+  // setting survives a checkpoint; any other value is refused naming the key.
+  const std::string file = (dir_ / "cell.ckpt").string();
+  const std::string extra = ", max_steps: 10, load_steps: 10, tolerance: 0.01, on_failure: continue";
+  DemSolver s;
+  setupWorker(s, workerScene(file, extra));
+  const std::string ckpt = (dir_ / "continue.ckpt").string();
+  ASSERT_GT(s.checkpoint(ckpt), 0u);
+  std::vector<double> inc = isotropic(0.0);
+  const std::vector<double> squeeze = isotropic(-1e-3);
+  inc.insert(inc.end(), squeeze.begin(), squeeze.end());
+  auto check = [&](DemSolver& solver, const char* which) {
+    Exchange x;
+    const auto r = x.run(solver, {0, 1}, inc);
+    ASSERT_EQ(r.getFailed().size(), 2u) << which;
+    EXPECT_FALSE(r.getFailed()[0]) << which;
+    EXPECT_TRUE(r.getFailed()[1]) << which;
+    EXPECT_GT(r.getUnbalancedForceIndices()[1], 0.01) << which;
+    EXPECT_EQ(r.getRelaxationSteps()[1], 20u) << which;  // 10 load steps + the budget
+    const auto sig = wire::view(r.getStresses());
+    EXPECT_LT((sig[9] + sig[13] + sig[17]) / 3, -1.2 * kPressure) << which;  // compressed: the stress as it stands
+  };
+  check(s, "as set up");
+  DemSolver restored;
+  restored.restore(ckpt);
+  check(restored, "restored");
+  // A job that succeeds carries no flags (an empty list: none failed).
+  DemSolver ok;
+  setupWorker(ok, workerScene(file, ", on_failure: continue"));
+  Exchange x;
+  EXPECT_EQ(x.run(ok, {0}, isotropic(0.0)).getFailed().size(), 0u);
+  DemSolver bad;
+  try {
+    setupWorker(bad, workerScene(file, ", on_failure: ignore"));
+    ADD_FAILURE() << "on_failure: ignore accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+    EXPECT_NE(std::string(e.what()).find("unit_cells.on_failure: expected stop"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {
   const DemSystem weak = weakenedCell(*cell_, 5, 11, log_.dt, 0.01, 200000);
   saveUnitCell(weak, (dir_ / "weak").string(), log_.dt);
@@ -254,6 +298,42 @@ TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {
   // A worker holds only cells: other params keys are refused.
   EXPECT_NE(refused(workerScene(file, "}\n      gravity: [0, 0, 0]\n      x: {a: 1")).find("unknown key 'gravity'"),
             std::string::npos);
+}
+
+TEST_F(DemUnitCell, VariantsAreChosenByCellIdAlone) {
+  // variants: [weak] (145 of the 150 spheres): each cell starts from one of
+  // the two files, picked by its id, so both occur among 8 cells and a worker
+  // holding the odd ids (stride 2) starts each from the same file as a worker
+  // holding all 8; a bad entry is refused naming its index.
+  const DemSystem weak = weakenedCell(*cell_, 5, 11, log_.dt, 0.01, 200000);
+  saveUnitCell(weak, (dir_ / "variant").string(), log_.dt);
+  const std::string file = (dir_ / "cell.ckpt").string(), variant = (dir_ / "variant.ckpt").string();
+  auto scene = [&](const std::string& extra, const std::string& variants) {
+    return "scene: {name: t}\nsolvers:\n  - name: cells\n    kind: dem\n    params:\n      unit_cells: {file: " + file +
+           ", variants: [" + variants + "]" + extra + "}\n";
+  };
+  DemSolver all, odd;
+  setupWorker(all, scene(", count: 8", variant));
+  setupWorker(odd, scene(", first_id: 1, stride: 2, count: 4", variant));
+  std::size_t fromVariant = 0;
+  for (std::uint32_t id = 0; id < 8; ++id) {
+    const std::size_t n = all.unitCells()->cell(id).particles.size();
+    EXPECT_TRUE(n == 150u || n == 145u) << "cell " << id << ": " << n;
+    fromVariant += n == 145u;
+    if (id % 2 == 1) EXPECT_EQ(odd.unitCells()->cell(id).particles.size(), n) << "cell " << id;
+  }
+  std::printf("cells from the variant: %zu of 8\n", fromVariant);
+  EXPECT_GT(fromVariant, 0u);
+  EXPECT_LT(fromVariant, 8u);
+  DemSolver bad;
+  try {
+    setupWorker(bad, scene("", variant + ", " + (dir_ / "none.ckpt").string()));
+    ADD_FAILURE() << "a missing variant file was accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+    EXPECT_NE(std::string(e.what()).find("params.unit_cells.variants[1]: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("none.ckpt"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(DemUnitCell, StrideInterleavesTheCellsOfTwoWorkers) {

@@ -19,6 +19,7 @@
 #include <array>
 #include <map>
 #include <optional>
+#include <set>
 #include <ostream>
 
 #include "cosim/config/config_reader.hpp"
@@ -43,8 +44,10 @@ struct WorkerJobs {
 struct GatheredResults {
   std::vector<std::uint32_t> ids, steps;
   std::vector<double> stresses, porosities, coordination, indices;
+  std::vector<std::uint8_t> failed;  // 1: the job ended outside its worker's relaxation settings (on_failure: continue)
   void clear() {
     ids.clear(), steps.clear(), stresses.clear(), porosities.clear(), coordination.clear(), indices.clear();
+    failed.clear();
   }
 };
 
@@ -213,7 +216,31 @@ class GmhCoupling final : public Coupling {
     for (const auto& w : workers_)
       if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
     gatherFrom(ctx);
+    noteFailures(ctx.exchange);
     record(ctx);
+  }
+
+  /// Jobs that ended outside their worker's relaxation settings and were
+  /// accepted as they stand (on_failure: continue): never silent. A cell is
+  /// named with its numbers when it starts failing and when it recovers; the
+  /// series counts them every step and the run report sums them.
+  void noteFailures(std::uint64_t exchange) {
+    for (std::size_t k = 0; k < gathered_.ids.size(); ++k) {
+      const std::uint32_t id = gathered_.ids[k];
+      const bool failed = gathered_.failed[k] != 0;
+      const bool was = failing_.count(id) != 0;
+      if (failed) ++failedJobs_, failedCells_.insert(id);
+      if (failed == was) continue;
+      if (failed) failing_.insert(id); else failing_.erase(id);
+      const double* sigma = &gathered_.stresses[9 * k];
+      log::warn("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": unit cell " +
+                std::to_string(id) + (failed ? " failed its job, accepted as it stands (on_failure: continue)"
+                                             : " relaxed again") +
+                ": I_uf " + std::to_string(gathered_.indices[k]) + " after " + std::to_string(gathered_.steps[k]) +
+                " steps, porosity " + std::to_string(gathered_.porosities[k]) + ", Z " +
+                std::to_string(gathered_.coordination[k]) + ", mean stress " +
+                std::to_string((sigma[0] + sigma[4] + sigma[8]) / 3.0) + " Pa");
+    }
   }
 
   void gatherFrom(const ExchangeContext& ctx) {
@@ -253,6 +280,13 @@ class GmhCoupling final : public Coupling {
     if (fine_[1] > 0.0) f["fine_dt_over_critical"] = fine_[0] / fine_[1];
     if (coarseCritical > 0.0) f["coarse_dt_over_critical"] = dt_ / coarseCritical;
     if (fine_[1] > 0.0 && coarseCritical > 0.0) f["time_step_ratio_alpha"] = coarseCritical / fine_[1];
+    f["failed_cell_jobs"] = static_cast<double>(failedJobs_);
+    f["failed_cells"] = static_cast<double>(failedCells_.size());
+    if (failedJobs_ > 0)
+      report.warnings.push_back("coupling '" + name() + "': " + std::to_string(failedJobs_) + " unit-cell jobs of " +
+                                std::to_string(failedCells_.size()) +
+                                " cells ended outside their relaxation settings and were accepted as they stood "
+                                "(on_failure: continue; series " + name() + "/failed_cells, the log names them)");
     if (nonlocal_) {
       f["nonlocal_local_fraction"] = localFraction_;
       f["nonlocal_smallest_eigenvalue"] = smallestEigenvalue_;
@@ -268,9 +302,10 @@ class GmhCoupling final : public Coupling {
     const auto coordination = wire::view(r.getCoordinationNumbers());
     const auto indices = wire::view(r.getUnbalancedForceIndices());
     const auto steps = wire::view(r.getRelaxationSteps());
+    const auto failed = r.getFailed();
     const std::size_t n = ids.size();
     if (stresses.size() != 9 * n || porosities.size() != n || coordination.size() != n || indices.size() != n ||
-        steps.size() != n)
+        steps.size() != n || (failed.size() != 0 && failed.size() != n))
       throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" +
                                worker + "' sent " + std::to_string(n) + " cell ids with mismatched result arrays");
     gathered_.ids.insert(gathered_.ids.end(), ids.begin(), ids.end());
@@ -279,6 +314,8 @@ class GmhCoupling final : public Coupling {
     gathered_.coordination.insert(gathered_.coordination.end(), coordination.begin(), coordination.end());
     gathered_.indices.insert(gathered_.indices.end(), indices.begin(), indices.end());
     gathered_.steps.insert(gathered_.steps.end(), steps.begin(), steps.end());
+    for (std::size_t k = 0; k < n; ++k)
+      gathered_.failed.push_back(failed.size() != 0 && failed[static_cast<unsigned>(k)] ? 1 : 0);
   }
 
   /// Pool statistics per coarse step: what the stability diagnostics look at;
@@ -293,7 +330,7 @@ class GmhCoupling final : public Coupling {
 
   void recordPool(const ExchangeContext& ctx) const {
     const auto n = static_cast<double>(gathered_.ids.size());
-    double porosity = 0.0, coordination = 0.0, maxIndex = 0.0, maxSteps = 0.0, pressure = 0.0;
+    double porosity = 0.0, coordination = 0.0, maxIndex = 0.0, maxSteps = 0.0, pressure = 0.0, failed = 0.0;
     for (std::size_t k = 0; k < gathered_.ids.size(); ++k) {
       const double* sigma = &gathered_.stresses[9 * k];
       pressure -= (sigma[0] + sigma[4] + sigma[8]) / (3.0 * n);
@@ -301,12 +338,14 @@ class GmhCoupling final : public Coupling {
       coordination += gathered_.coordination[k] / n;
       maxIndex = std::max(maxIndex, gathered_.indices[k]);
       maxSteps = std::max(maxSteps, static_cast<double>(gathered_.steps[k]));
+      failed += gathered_.failed[k];
     }
     ctx.series->append(name() + "/mean_pressure", pressure);
     ctx.series->append(name() + "/mean_porosity", porosity);
     ctx.series->append(name() + "/mean_coordination", coordination);
     ctx.series->append(name() + "/max_unbalanced_force_index", maxIndex);
     ctx.series->append(name() + "/max_relaxation_steps", maxSteps);
+    ctx.series->append(name() + "/failed_cells", failed);
   }
 
   /// cell_ids (the column order), cell_porosity, cell_coordination, and
@@ -350,6 +389,8 @@ class GmhCoupling final : public Coupling {
   std::vector<std::size_t> order_;  // recordCells: gathered index of each cell, by id
   std::vector<double> cellIds_, cellPorosity_, cellCoordination_, cellStress_;
   std::array<double, 6> fine_{};  // see noteFineTimeStep
+  std::set<std::uint32_t> failing_, failedCells_;  // failing now; failed at least once
+  std::uint64_t failedJobs_ = 0;
 };
 
 const bool registered = CouplingRegistry::add(

@@ -23,18 +23,31 @@ using wire::SolverError;
 using Code = proto::Error::Code;
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'G', 'M', 'H'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: on_failure; 1 (stop) still restores
 
-DemSystem loadCell(const YamlSection& s, const std::string& key, const std::string& baseDir) {
+/// A prepared cell from `file` (relative: against baseDir, then as given);
+/// `fail(message)` reports a problem where the file was named.
+template <class Fail>
+DemSystem readCell(const std::string& file, const std::string& baseDir, Fail fail) {
   DemSystem cell;
   try {
-    readCheckpoint(cell, wire::resolveScenePath(s.text(key), baseDir));
+    readCheckpoint(cell, wire::resolveScenePath(file, baseDir));
   } catch (const std::exception& e) {
-    s.fail(key, e.what());
+    fail(e.what());
   }
-  if (!cell.cell.enabled) s.fail(key, "'" + s.text(key) + "' holds no periodic cell (prepare it with dem_prepare_cell)");
+  if (!cell.cell.enabled) fail("'" + file + "' holds no periodic cell (prepare it with dem_prepare_cell)");
   cell.cell.velocityGradient = {};
   return cell;
+}
+
+DemSystem loadCell(const YamlSection& s, const std::string& key, const std::string& baseDir) {
+  return readCell(s.text(key), baseDir, [&](const std::string& message) { s.fail(key, message); });
+}
+
+/// The k-th entry of unit_cells.variants: another prepared cell (another seed).
+DemSystem loadVariant(const YamlSection& s, const YAML::Node& entry, std::size_t k, const std::string& baseDir) {
+  const std::string where = s.where(entry) + ": " + s.path() + ".variants[" + std::to_string(k) + "]";
+  return readCell(toText(entry, where), baseDir, [&](const std::string& message) { throw SceneError(where + ": " + message); });
 }
 
 /// One UnitCellResults list of n cells, filled cell by cell (jobs and the setup report).
@@ -42,13 +55,20 @@ struct ResultRows {
   std::span<std::uint32_t> ids;
   std::span<double> stress, porosity, coordination, index;
   std::span<std::uint32_t> steps;
+  proto::UnitCellResults::Builder list;
   ResultRows(proto::UnitCellResults::Builder r, unsigned n)
       : ids(wire::view(r.initCellIds(n))),
         stress(wire::view(r.initStresses(9 * n))),
         porosity(wire::view(r.initPorosities(n))),
         coordination(wire::view(r.initCoordinationNumbers(n))),
         index(wire::view(r.initUnbalancedForceIndices(n))),
-        steps(wire::view(r.initRelaxationSteps(n))) {}
+        steps(wire::view(r.initRelaxationSteps(n))),
+        list(r) {}
+  /// Flags cell k failed (the list is sized on the first failure: empty means none failed).
+  void fail(unsigned k) {
+    if (!list.hasFailed()) list.initFailed(static_cast<unsigned>(ids.size()));
+    list.getFailed().set(k, true);
+  }
   void set(unsigned k, std::uint32_t id, const CellMeasures& m, std::uint32_t relaxationSteps) {
     ids[k] = id;
     for (unsigned c = 0; c < 9; ++c) stress[9 * k + c] = m.stress[c];
@@ -59,11 +79,25 @@ struct ResultRows {
   }
 };
 
-RelaxSettings readRelaxSettings(const YamlSection& s, const DemSystem& prototype) {
+/// Which of the files a cell starts from, by its id alone (so every worker and
+/// every stride agree): a splitmix64 hash, spatially uncorrelated over a mesh
+/// numbered row by row. 0 is `file`, k > 0 the k-th entry of `variants`.
+std::size_t variantOf(std::uint32_t id, std::size_t files) {
+  std::uint64_t z = static_cast<std::uint64_t>(id) + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return static_cast<std::size_t>((z ^ (z >> 31)) % files);
+}
+
+/// The relaxation step: dt, or dt_factor x the smallest critical step of the
+/// cells' files (variants may hold a smaller sphere than `file`).
+RelaxSettings readRelaxSettings(const YamlSection& s, const std::vector<const DemSystem*>& prototypes) {
   RelaxSettings r;
   const double factor = s.positive("dt_factor", 0.5);
   if (factor > 1.0) s.fail("dt_factor", "must not exceed 1");
-  r.dt = s.positive("dt", factor * criticalTimeStep(prototype));
+  double critical = criticalTimeStep(*prototypes.front());
+  for (const DemSystem* p : prototypes) critical = std::min(critical, criticalTimeStep(*p));
+  r.dt = s.positive("dt", factor * critical);
   r.tolerance = s.positive("tolerance", 0.01);
   r.maxSteps = s.integer("max_steps", 20000);
   if (r.maxSteps < 1) s.fail("max_steps", "must be at least 1");
@@ -71,6 +105,11 @@ RelaxSettings readRelaxSettings(const YamlSection& s, const DemSystem& prototype
   if (r.loadSteps < 1) s.fail("load_steps", "must be at least 1");
   r.minCoordination = s.number("min_coordination", 2.0);
   if (r.minCoordination < 0.0) s.fail("min_coordination", "must not be negative");
+  const std::string onFailure = s.has("on_failure") ? s.text("on_failure") : "stop";
+  if (onFailure != "stop" && onFailure != "continue")
+    s.fail("on_failure", "expected stop (the advance fails naming the cells) or continue (their stresses go back "
+                         "as they stand, flagged failed), got '" + onFailure + "'");
+  r.continueOnFailure = onFailure == "continue";
   return r;
 }
 
@@ -92,13 +131,25 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   const YamlSection params(node, sceneFile, "params", {"unit_cells"});
   const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "stride", "weakened", "dt", "dt_factor",
                                                     "tolerance", "max_steps", "load_steps", "min_coordination",
-                                                    "mass_damping"});
-  DemSystem prototype = loadCell(s, "file", dir);
-  if (s.has("mass_damping")) {
-    prototype.massDamping = s.number("mass_damping");
-    if (prototype.massDamping < 0.0) s.fail("mass_damping", "must not be negative");
+                                                    "mass_damping", "on_failure", "variants"});
+  // The cells' starting states: `file`, and the optional `variants` (cells
+  // prepared with other seeds), one chosen per cell id by variantOf.
+  std::vector<DemSystem> prototypes;
+  prototypes.push_back(loadCell(s, "file", dir));
+  if (s.has("variants")) {
+    const YAML::Node list = s.node("variants");
+    if (!list.IsSequence() || list.size() == 0) s.fail("variants", "expected a non-empty list of cell files");
+    for (std::size_t k = 0; k < list.size(); ++k) prototypes.push_back(loadVariant(s, list[k], k, dir));
   }
-  auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, prototype));
+  if (s.has("mass_damping")) {
+    const double c = s.number("mass_damping");
+    if (c < 0.0) s.fail("mass_damping", "must not be negative");
+    for (auto& p : prototypes) p.massDamping = c;
+  }
+  std::vector<const DemSystem*> files;
+  for (const auto& p : prototypes) files.push_back(&p);
+  auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, files));
+  const DemSystem& prototype = prototypes.front();
   const long first = s.integer("first_id", 0), count = s.integer("count", 1), stride = s.integer("stride", 1);
   if (first < 0) s.fail("first_id", "must not be negative");
   if (count < 1) s.fail("count", "must be at least 1");
@@ -121,7 +172,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   }
   for (long k = 0; k < count; ++k) {
     const auto id = static_cast<std::uint32_t>(first + k * stride);
-    worker->add(id, cloneCell(weakIds.count(id) ? *weak : prototype));
+    worker->add(id, cloneCell(weakIds.count(id) ? *weak : prototypes[variantOf(id, prototypes.size())]));
   }
   return worker;
 }
@@ -160,11 +211,14 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
     for (unsigned k = 0; k < n; ++k) {
       const JobOutcome o = runUnitCellJob(cell(ids[k]), increment(strains, k, ids[k]), relax_);
       rows.set(k, ids[k], o.measures, static_cast<std::uint32_t>(o.steps));
-      if (const std::string why = o.problem(); !why.empty())
+      if (const std::string why = o.problem(); !why.empty()) {
+        rows.fail(k);
         failures += (failures.empty() ? "" : "; ") + std::string("cell ") + std::to_string(ids[k]) + ": " + why;
+      }
     }
   }
-  if (!failures.empty()) throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
+  if (!failures.empty() && !relax_.continueOnFailure)
+    throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
   writeFineTimeStep(outputs);
 }
 
@@ -201,6 +255,7 @@ std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {
   pod(kVersion);
   pod(relax_.dt); pod(relax_.tolerance); pod(relax_.maxSteps); pod(relax_.loadSteps); pod(relax_.checkEvery);
   pod(relax_.minCoordination);
+  pod(static_cast<std::uint8_t>(relax_.continueOnFailure));
   pod(time); pod(steps);
   pod(static_cast<std::uint64_t>(cells_.size()));
   for (std::size_t k = 0; k < cells_.size(); ++k) {
@@ -224,9 +279,16 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::restore(const std::string& path)
   };
   std::uint32_t version = 0;
   pod(version);
-  if (version != kVersion) throw std::runtime_error(path + ": unsupported unit-cell worker checkpoint version");
+  if (version != 1 && version != kVersion)
+    throw std::runtime_error(path + ": unsupported unit-cell worker checkpoint version " + std::to_string(version));
   RelaxSettings r;
   pod(r.dt); pod(r.tolerance); pod(r.maxSteps); pod(r.loadSteps); pod(r.checkEvery); pod(r.minCoordination);
+  if (version >= 2) {
+    std::uint8_t proceed = 0;
+    pod(proceed);
+    if (proceed > 1) throw std::runtime_error(path + ": corrupt unit-cell worker checkpoint (on_failure)");
+    r.continueOnFailure = proceed == 1;
+  }
   auto worker = std::make_unique<UnitCellWorker>(r);
   pod(worker->time); pod(worker->steps);
   std::uint64_t count = 0;

@@ -90,6 +90,10 @@ struct RelaxSettings {
   long loadSteps = 100;         // steps over which the increment is applied
   long checkEvery = 10;         // I_uf is evaluated every so many steps
   double minCoordination = 2.0; // below this a cell has lost its skeleton
+  // A failed job (above): false stops the run; true returns the cell's stress
+  // as it stands, flagged failed, so the coarse problem can load or unload
+  // the cell again (the coupler reports every such job with its numbers).
+  bool continueOnFailure = false;
 };
 
 struct JobOutcome {

@@ -10,18 +10,26 @@
 //       count: 8
 //       stride: 1                 # 2 with two workers (first_id 0 and 1) interleaves
 //                                 # them, so a band of busy cells loads both alike
+//       variants: [cell500_s2.ckpt, cell500_s3.ckpt]    # optional: cells prepared with other seeds;
+//                                 # each cell starts from file or one of these, picked by a hash of its
+//                                 # id (the same on every worker, whatever the stride)
 //       weakened: {file: cell500_weak.ckpt, ids: [5]}   # optional: these ids start from another file
-//       dt: 1.0e-7                # pseudo-time step; default dt_factor * critical step of the file
+//       dt: 1.0e-7                # pseudo-time step; default dt_factor * the smallest critical step of the files
 //       dt_factor: 0.5
 //       tolerance: 0.01           # unbalanced-force index (Liu Eq. 57)
 //       max_steps: 20000          # relaxation budget per job
 //       load_steps: 100           # steps over which an increment is applied
 //       min_coordination: 2.0
 //       mass_damping: 1.0e5       # optional override of the file's c [1/s]
+//       on_failure: stop          # or continue (below)
 //
 // A job whose cell does not relax within the budget, or ends with fewer
-// contacts than min_coordination, fails the advance: the error reply names
-// every such cell with its I_uf, steps, porosity and coordination.
+// contacts than min_coordination, fails: with on_failure: stop (the default)
+// the advance fails and the error reply names every such cell with its I_uf,
+// steps, porosity and coordination; with continue the cell's stress goes back
+// as it stands, flagged in UnitCellResults.failed, and the gmh coupling
+// reports the job (a cell that lost its skeleton in a dilating band carries
+// almost no stress; the coarse problem may compact it again).
 #include <yaml-cpp/yaml.h>
 
 #include <cstdint>
