@@ -80,6 +80,7 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
   j["planned_exchanges"] = plannedExchanges;
   j["simulated_time_s"] = simulatedTime;
   j["end_time_s"] = endTime;
+  if (resumedFrom) j["resumed_from"] = {{"exchange", resumedFrom->first}, {"time_s", resumedFrom->second}};
   j["wall_s"] = {{"total", wallS}, {"startup", startupS}, {"exchange_loop", loopS},
                  {"coupler_mapping", mappingS}, {"coupler_output", outputS}, {"communication", communicationS}};
   j["peers"] = nlohmann::json::array();
@@ -124,6 +125,9 @@ std::string RunReport::text() const {
   s << "  placement     " << placement << "\n";
   s << "  exchanges     " << exchanges << " of " << plannedExchanges << ", simulated t = " << std::setprecision(6)
     << simulatedTime << " s of " << endTime << " s\n" << std::setprecision(3);
+  if (resumedFrom)
+    s << "  resumed       from exchange " << resumedFrom->first << " (t = " << std::setprecision(6) << resumedFrom->second
+      << " s): the times below cover the exchanges since\n" << std::setprecision(3);
   s << "  wall time     " << wallS << " s (startup " << startupS << " s, exchange loop " << loopS << " s)\n";
   if (host)
     s << "  host          " << host->cpus << " CPUs busy " << host->busyS << " s, idle " << host->idleS << " s, steal " << host->stealS << " s ("

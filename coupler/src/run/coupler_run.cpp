@@ -212,6 +212,7 @@ class CouplerRun final : public ExchangeDriver {
     // row and the rows of the exchanges before it.
     if (resumeFrom_->seriesRows) series_->resumeAt(*resumeFrom_->seriesRows);
     else series_->resumeAt(resumeFrom_->exchange / static_cast<std::uint64_t>(scene_.output.seriesEvery) + 1);
+    report_.resumedFrom = std::make_pair(resumeFrom_->exchange, resumeFrom_->time);
     log::info("resuming from exchange " + std::to_string(resumeFrom_->exchange) + " (t = " +
               std::to_string(resumeFrom_->time) + " s)");
   }

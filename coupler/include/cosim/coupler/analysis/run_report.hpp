@@ -96,6 +96,10 @@ struct RunReport {
   std::uint64_t plannedExchanges = 0;
   double simulatedTime = 0.0;
   double endTime = 0.0;
+  /// A resumed run (--resume): the checkpoint it continued from. Its wall
+  /// times and shares cover this process's exchanges only; the analysis
+  /// (errors, figures) covers the whole run from t = 0.
+  std::optional<std::pair<std::uint64_t, double>> resumedFrom;  // exchange, time
   double wallS = 0.0;
   double startupS = 0.0;   // launch, handshake and setup
   double loopS = 0.0;      // the exchange loop
