@@ -15,8 +15,8 @@
 # 25 of Liu's 4096 is 0.6 %, of a 500-sphere cell 5 %; 3 keeps Liu's share;
 # L4_NONLOCAL (none) the gmh coupling's nonlocal map, e.g.
 # "{radius: 0.0135, local_fraction: 0.15}" (Liu Eqs. 58-59);
-# L4_ON_FAILURE (stop) the workers' on_failure: continue accepts a cell that
-# cannot relax (e.g. one that lost its skeleton) as it stands and goes on.
+# L4_ON_FAILURE (the scene's continue) the workers' on_failure: stop ends the
+# run at the first cell that cannot relax (e.g. one that lost its skeleton).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
