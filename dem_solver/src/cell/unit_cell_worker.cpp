@@ -134,13 +134,13 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
                                                     "mass_damping", "on_failure", "variants"});
   // The cells' starting states: `file`, and the optional `variants` (cells
   // prepared with other seeds), one chosen per cell id by variantOf.
+  const YAML::Node variants = s.node("variants");
+  if (variants && (!variants.IsSequence() || variants.size() == 0))
+    s.fail("variants", "expected a non-empty list of cell files");
   std::vector<DemSystem> prototypes;
+  prototypes.reserve(1 + (variants ? variants.size() : 0));  // stays in place: `files` below points into it
   prototypes.push_back(loadCell(s, "file", dir));
-  if (s.has("variants")) {
-    const YAML::Node list = s.node("variants");
-    if (!list.IsSequence() || list.size() == 0) s.fail("variants", "expected a non-empty list of cell files");
-    for (std::size_t k = 0; k < list.size(); ++k) prototypes.push_back(loadVariant(s, list[k], k, dir));
-  }
+  for (std::size_t k = 0; variants && k < variants.size(); ++k) prototypes.push_back(loadVariant(s, variants[k], k, dir));
   if (s.has("mass_damping")) {
     const double c = s.number("mass_damping");
     if (c < 0.0) s.fail("mass_damping", "must not be negative");
