@@ -216,22 +216,25 @@ class GmhCoupling final : public Coupling {
     for (const auto& w : workers_)
       if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
     gatherFrom(ctx);
-    noteFailures(ctx.exchange);
+    noteFailures(ctx.exchange, ctx.replay);
     record(ctx);
   }
 
   /// Jobs that ended outside their worker's relaxation settings and were
   /// accepted as they stand (on_failure: continue): never silent. A cell is
   /// named with its numbers when it starts failing and when it recovers; the
-  /// series counts them every step and the run report sums them.
-  void noteFailures(std::uint64_t exchange) {
+  /// series counts them every step and the run report sums them. A resumed
+  /// run's replayed replies were counted before the checkpoint: they only
+  /// set which cells are failing now.
+  void noteFailures(std::uint64_t exchange, bool replay) {
     for (std::size_t k = 0; k < gathered_.ids.size(); ++k) {
       const std::uint32_t id = gathered_.ids[k];
       const bool failed = gathered_.failed[k] != 0;
       const bool was = failing_.count(id) != 0;
-      if (failed) ++failedJobs_, failedCells_.insert(id);
+      if (failed && !replay) ++failedJobs_, failedCells_.insert(id);
       if (failed == was) continue;
       if (failed) failing_.insert(id); else failing_.erase(id);
+      if (replay) continue;
       const double* sigma = &gathered_.stresses[9 * k];
       log::warn("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": unit cell " +
                 std::to_string(id) + (failed ? " failed its job, accepted as it stands (on_failure: continue)"
