@@ -320,7 +320,9 @@ TEST_F(DemUnitCell, VariantsAreChosenByCellIdAlone) {
     const std::size_t n = all.unitCells()->cell(id).particles.size();
     EXPECT_TRUE(n == 150u || n == 145u) << "cell " << id << ": " << n;
     fromVariant += n == 145u;
-    if (id % 2 == 1) EXPECT_EQ(odd.unitCells()->cell(id).particles.size(), n) << "cell " << id;
+    if (id % 2 == 1) {
+      EXPECT_EQ(odd.unitCells()->cell(id).particles.size(), n) << "cell " << id;
+    }
   }
   std::printf("cells from the variant: %zu of 8\n", fromVariant);
   EXPECT_GT(fromVariant, 0u);
