@@ -19,8 +19,8 @@
 #include <array>
 #include <map>
 #include <optional>
-#include <set>
 #include <ostream>
+#include <set>
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/analysis/run_report.hpp"

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <span>
 #include <sstream>
@@ -91,12 +92,12 @@ std::size_t variantOf(std::uint32_t id, std::size_t files) {
 
 /// The relaxation step: dt, or dt_factor x the smallest critical step of the
 /// cells' files (variants may hold a smaller sphere than `file`).
-RelaxSettings readRelaxSettings(const YamlSection& s, const std::vector<const DemSystem*>& prototypes) {
+RelaxSettings readRelaxSettings(const YamlSection& s, const std::vector<DemSystem>& prototypes) {
   RelaxSettings r;
   const double factor = s.positive("dt_factor", 0.5);
   if (factor > 1.0) s.fail("dt_factor", "must not exceed 1");
-  double critical = criticalTimeStep(*prototypes.front());
-  for (const DemSystem* p : prototypes) critical = std::min(critical, criticalTimeStep(*p));
+  double critical = std::numeric_limits<double>::max();
+  for (const DemSystem& p : prototypes) critical = std::min(critical, criticalTimeStep(p));
   r.dt = s.positive("dt", factor * critical);
   r.tolerance = s.positive("tolerance", 0.01);
   r.maxSteps = s.integer("max_steps", 20000);
@@ -138,7 +139,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   if (variants && (!variants.IsSequence() || variants.size() == 0))
     s.fail("variants", "expected a non-empty list of cell files");
   std::vector<DemSystem> prototypes;
-  prototypes.reserve(1 + (variants ? variants.size() : 0));  // stays in place: `files` below points into it
+  prototypes.reserve(1 + (variants ? variants.size() : 0));
   prototypes.push_back(loadCell(s, "file", dir));
   for (std::size_t k = 0; variants && k < variants.size(); ++k) prototypes.push_back(loadVariant(s, variants[k], k, dir));
   if (s.has("mass_damping")) {
@@ -146,9 +147,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
     if (c < 0.0) s.fail("mass_damping", "must not be negative");
     for (auto& p : prototypes) p.massDamping = c;
   }
-  std::vector<const DemSystem*> files;
-  for (const auto& p : prototypes) files.push_back(&p);
-  auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, files));
+  auto worker = std::make_unique<UnitCellWorker>(readRelaxSettings(s, prototypes));
   const DemSystem& prototype = prototypes.front();
   const long first = s.integer("first_id", 0), count = s.integer("count", 1), stride = s.integer("stride", 1);
   if (first < 0) s.fail("first_id", "must not be negative");
