@@ -228,40 +228,53 @@ void PdSystem::stepStaggered(double dt) {
   // exactly the leapfrog of Eq. 44.
   // Each half is one pass over the particles: kick, the particle's
   // constraints, move and work (the same arithmetic, and the work summed in
-  // the same order, as separate passes over all particles).
-  auto& v = particles_.velocity;
-  auto& u = particles_.displacement;
-  const auto& m = particles_.mass;
-  const auto& fe = particles_.externalForce;
-  const auto& fi = particles_.internalForce;
-  computeExternal();
+  // the same order, as separate passes over all particles). The pass runs on
+  // every step of the fine solver, so it reads through unaliased pointers,
+  // calls the constraints only for constrained particles and skips the work
+  // terms and the first kick of particles without external force (each is
+  // exactly zero: the state and the work are bitwise the same, up to the
+  // sign of a zero).
   const std::size_t n = particles_.size();
+  computeExternal();
   velocityBefore_.resize(3 * n);
   velocityCoupled_.resize(3 * n);
-  double* vOld = velocityBefore_.data();
-  double* vc = velocityCoupled_.data();
+  double* __restrict v = particles_.velocity.data();
+  double* __restrict u = particles_.displacement.data();
+  double* __restrict vOld = velocityBefore_.data();
+  double* __restrict vc = velocityCoupled_.data();
+  const double* __restrict m = particles_.mass.data();
+  const double* __restrict fe = particles_.externalForce.data();
+  const std::uint32_t* constrained = constraintOffset_.data();
   double w = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
-      vOld[q] = v[q];
-      v[q] += dt * fe[q] / m[i];
-    }
-    constrainParticle(i, &v[3 * i]);
-    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
-      const double du = dt * (v[q] - vOld[q]);
-      u[q] += du;
-      w += fe[q] * du;
-      vc[q] = v[q];
+    double* vi = v + 3 * i;
+    const double* fei = fe + 3 * i;
+    const bool loaded = fei[0] != 0.0 || fei[1] != 0.0 || fei[2] != 0.0;
+    const bool bound = constrained[i] != constrained[i + 1];
+    for (std::size_t a = 0; a < 3; ++a) vOld[3 * i + a] = vc[3 * i + a] = vi[a];
+    // A free particle without external force neither kicks nor moves here.
+    if (!loaded && !bound) continue;
+    for (std::size_t a = 0; a < 3; ++a) vi[a] += dt * fei[a] / m[i];
+    if (bound) constrainParticle(i, vi);
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double du = dt * (vi[a] - vOld[3 * i + a]);
+      u[3 * i + a] += du;
+      if (loaded) w += fei[a] * du;
+      vc[3 * i + a] = vi[a];
     }
   }
   computeInternal();
+  const double* __restrict fi = particles_.internalForce.data();
   for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) v[q] += dt * fi[q] / m[i];
-    constrainParticle(i, &v[3 * i]);
-    for (std::size_t q = 3 * i; q < 3 * i + 3; ++q) {
-      const double du = dt * (v[q] - vc[q]) + dt * vOld[q];
-      u[q] += du;
-      w += fe[q] * du;
+    double* vi = v + 3 * i;
+    const double* fei = fe + 3 * i;
+    for (std::size_t a = 0; a < 3; ++a) vi[a] += dt * fi[3 * i + a] / m[i];
+    if (constrained[i] != constrained[i + 1]) constrainParticle(i, vi);
+    const bool loaded = fei[0] != 0.0 || fei[1] != 0.0 || fei[2] != 0.0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double du = dt * (vi[a] - vc[3 * i + a]) + dt * vOld[3 * i + a];
+      u[3 * i + a] += du;
+      if (loaded) w += fei[a] * du;
     }
   }
   work_ += w;

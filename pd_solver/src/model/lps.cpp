@@ -95,10 +95,16 @@ class Lps final : public PdModel {
     // the row loops or the pair loops, whichever ran. Otherwise (the
     // staggered update moves after its force evaluation) recompute them with
     // the loops the forces would use: the pair loops take half the roots.
+    // Without correction and broken bonds, that sweep also sums S = sum w V e^2,
+    // which gives the densities without a second pass over the bonds
+    // (squaredEnergyDensity).
     if (!extensionsAreCurrent(body)) {
-      if (!corrected_ && pairwise(body)) pairExtensions(body);
-      else updateExtensions(body);
+      const bool squares = !corrected_ && intact(body);
+      if (squares && pairwise(body)) pairExtensions<true>(body);
+      else if (squares) updateExtensions<true>(body);
+      else updateExtensions<false>(body);
     }
+    if (squaresAreCurrent_) return squaredEnergyDensity();
     return extensionsInPairs_ ? pairEnergyDensity(body) : rowEnergyDensity(body);
   }
 
@@ -147,6 +153,20 @@ class Lps final : public PdModel {
     return 0.5 * K_ * theta_[il] * theta_[il] + 0.5 * alpha * dev;
   }
 
+  /// Eq. 24 from the sweep's S = sum w V e^2 (uncorrected, no broken bond).
+  /// With Eq. 22, sum w V (e - theta |xi| / 3)^2 = S - (2 theta / 3) sum w V
+  /// |xi| e + (theta^2 / 9) sum w V |xi|^2, and by Eqs. 20 and 19 the two
+  /// sums are theta m / 3 and m: the deviatoric sum is S - m theta^2 / 9.
+  /// Where the strain is nearly isotropic the two terms nearly cancel; the
+  /// error is then round-off of S against the much larger K theta^2 / 2,
+  /// and the sum of squares is kept from going below zero.
+  std::vector<double> squaredEnergyDensity() const {
+    std::vector<double> out(squares_.size());
+    for (std::size_t il = 0; il < out.size(); ++il)
+      out[il] = particleEnergyDensity(il, std::max(0.0, squares_[il] - m_[il] * theta_[il] * theta_[il] / 9.0));
+    return out;
+  }
+
   // Bond index of j -> i for every bond i -> j (rows are sorted by partner).
   void buildReverse(const BodyContext& body) {
     const auto& b = body.bonds;
@@ -167,7 +187,9 @@ class Lps final : public PdModel {
   // Extension e (Eq. 18) per bond and dilatation theta (Eq. 20) per particle.
   // Deformed bonds are differences of current positions, x_j - x_i with
   // x = X + u rounded first, so Y_JI = -Y_IJ exactly and e_IJ = e_JI: forces
-  // of a pair cancel to round-off and momentum is conserved.
+  // of a pair cancel to round-off and momentum is conserved. With Squares,
+  // also S = sum w beta V_J e^2 per particle (squaredEnergyDensity).
+  template <bool Squares = false>
   void updateExtensions(const BodyContext& body) const {
     const auto& b = body.bonds;
     currentPositions(body, x_);
@@ -175,31 +197,37 @@ class Lps final : public PdModel {
     const std::uint32_t* nb = b.neighbor.data();
     const double* len = b.length.data();
     const double* coef = thetaCoef_.data();
+    const double* wv = weightVolume_.data();
     double* e = e_.data();
     const std::size_t first = body.begin;
     const long n = static_cast<long>(body.end - body.begin);
+    if constexpr (Squares) squares_.resize(static_cast<std::size_t>(n));
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
       const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
-      double th = 0.0;
+      double th = 0.0, sq = 0.0;
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
         const double* xj = x + 3 * (nb[k] - first);
         const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
         const double ek = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2) - len[k];
         e[k] = ek;
         if (!b.broken[k]) th += coef[k] * ek;
+        if constexpr (Squares) sq += wv[k] * ek * ek;  // only asked for without broken bonds
       }
       theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
+      if constexpr (Squares) squares_[static_cast<std::size_t>(il)] = sq;
     }
-    rememberExtensions(body, false);
+    rememberExtensions(body, false, Squares);
   }
 
-  /// Records the displacements e and theta now belong to, and whether e is
-  /// per bond (e_, row loops) or per pair (pairExtension_, pair loops).
-  void rememberExtensions(const BodyContext& body, bool inPairs) const {
+  /// Records the displacements e and theta now belong to, whether e is per
+  /// bond (e_, row loops) or per pair (pairExtension_, pair loops), and
+  /// whether squares_ was summed with them.
+  void rememberExtensions(const BodyContext& body, bool inPairs, bool squares) const {
     const auto firstU = body.particles.displacement.begin() + static_cast<long>(3 * body.begin);
     uOfExtensions_.assign(firstU, firstU + static_cast<long>(3 * (body.end - body.begin)));
     extensionsInPairs_ = inPairs;
+    squaresAreCurrent_ = squares;
   }
 
   /// True when the body's displacements are bitwise those of the last
@@ -283,10 +311,15 @@ class Lps final : public PdModel {
 #else
     const bool oneThread = true;
 #endif
-    // Asked every force evaluation (a restore may bring broken flags): memchr
-    // scans the flags at memory speed, std::find one byte at a time.
+    return oneThread && intact(body);
+  }
+
+  /// No bond of the body is broken. Asked every force evaluation (a restore
+  /// may bring broken flags): memchr scans the flags at memory speed,
+  /// std::find one byte at a time.
+  static bool intact(const BodyContext& body) {
     const auto& broken = body.bonds.broken;
-    return oneThread && (broken.empty() || std::memchr(broken.data(), 1, broken.size()) == nullptr);
+    return broken.empty() || std::memchr(broken.data(), 1, broken.size()) == nullptr;
   }
 
   // Each bond i -> j with j after i, in row order.
@@ -316,28 +349,48 @@ class Lps final : public PdModel {
 
   // e (Eq. 18) per pair and theta (Eq. 20) at the current positions, as
   // updateExtensions for the row loops; thetaCoef_ = (w beta V_J) |xi|.
+  // With Squares also S = sum w beta V_J e^2, in each particle's row order
+  // like theta, so bitwise the row loops' S.
+  template <bool Squares = false>
   void pairExtensions(const BodyContext& body) const {
     currentPositions(body, x_);
     const std::size_t n = body.end - body.begin;
     const double* x = x_.data();
     const double* V = body.particles.volume.data() + body.begin;
     std::fill(theta_.begin(), theta_.end(), 0.0);
+    if constexpr (Squares) squares_.assign(n, 0.0);
+    // Data pointers taken once: the loop has more live values than registers,
+    // and members would be reloaded through `this` after every store.
+    const std::size_t* offset = pairOffset_.data();
+    const std::uint32_t* partner = pairPartner_.data();
+    const double* length = pairLength_.data();
+    const double* weight = pairWeight_.data();
+    const double* mass = m_.data();
+    double* extension = pairExtension_.data();
+    double* theta = theta_.data();
+    double* squares = squares_.data();
     for (std::size_t il = 0; il < n; ++il) {
       const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2], Vi = V[il];
-      double th = theta_[il];
-      for (std::size_t q = pairOffset_[il]; q < pairOffset_[il + 1]; ++q) {
-        const std::size_t jl = pairPartner_[q];
+      double th = theta[il];
+      double sq = Squares ? squares[il] : 0.0;
+      for (std::size_t q = offset[il]; q < offset[il + 1]; ++q) {
+        const std::size_t jl = partner[q];
         const double* xj = x + 3 * jl;
         const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
-        const double L = pairLength_[q], w = pairWeight_[q];
+        const double L = length[q], w = weight[q];
         const double ek = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2) - L;
-        pairExtension_[q] = ek;
+        extension[q] = ek;
         th += w * V[jl] * L * ek;
-        theta_[jl] += w * Vi * L * ek;
+        theta[jl] += w * Vi * L * ek;
+        if constexpr (Squares) {
+          sq += w * V[jl] * ek * ek;
+          squares[jl] += w * Vi * ek * ek;
+        }
       }
-      theta_[il] = m_[il] > 0.0 ? 3.0 * th / m_[il] : 0.0;
+      theta[il] = mass[il] > 0.0 ? 3.0 * th / mass[il] : 0.0;
+      if constexpr (Squares) squares[il] = sq;
     }
-    rememberExtensions(body, true);
+    rememberExtensions(body, true, Squares);
   }
 
   // Eq. 24 from the pair loops' e and theta. Every particle sums its
@@ -372,15 +425,21 @@ class Lps final : public PdModel {
     const double* B = coefB_.data();
     pairForce_.assign(3 * n, 0.0);
     double* sums = pairForce_.data();
+    // Data pointers taken once, as in pairExtensions.
+    const std::size_t* offset = pairOffset_.data();
+    const std::uint32_t* partner = pairPartner_.data();
+    const double* length = pairLength_.data();
+    const double* weight = pairWeight_.data();
+    const double* extension = pairExtension_.data();
     for (std::size_t il = 0; il < n; ++il) {
       const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
       const double Ai = A[il], Bi = B[il], Vi = V[il];
       double f0 = sums[3 * il], f1 = sums[3 * il + 1], f2 = sums[3 * il + 2];
-      for (std::size_t q = pairOffset_[il]; q < pairOffset_[il + 1]; ++q) {
-        const std::size_t jl = pairPartner_[q];
+      for (std::size_t q = offset[il]; q < offset[il + 1]; ++q) {
+        const std::size_t jl = partner[q];
         const double* xj = x + 3 * jl;
         const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
-        const double L = pairLength_[q], w = pairWeight_[q], ek = pairExtension_[q];
+        const double L = length[q], w = weight[q], ek = extension[q];
         const double tSum = (Ai + A[jl]) * L + (Bi + B[jl]) * ek;
         const double Y = ek + L;
         const double si = tSum * (w * V[jl]) / Y, sj = tSum * (w * Vi) / Y;
@@ -509,6 +568,8 @@ class Lps final : public PdModel {
   mutable std::vector<double> theta_, e_, x_;  // scratch of the current configuration
   mutable std::vector<double> uOfExtensions_;  // the body's displacements e and theta_ belong to
   mutable bool extensionsInPairs_ = false;     // e is in pairExtension_ (pair loops), else in e_
+  mutable std::vector<double> squares_;        // per particle sum w beta V_J e^2 (updateExtensions<true>)
+  mutable bool squaresAreCurrent_ = false;     // squares_ belongs to the remembered extensions
   std::vector<std::size_t> reverse_;
   // Pair lists of the pairwise loops: pairs of row i in [pairOffset_[i], pairOffset_[i + 1]).
   std::vector<std::size_t> pairOffset_;
