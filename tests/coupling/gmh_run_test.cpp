@@ -176,7 +176,8 @@ TEST_F(GmhRun, FailedCellsStopTheRunOrAreAcceptedAndReported) {
   for (const auto& w : report["warnings"]) warned = warned || w.get<std::string>().find("8 unit-cell jobs of 2 cells") != std::string::npos;
   EXPECT_TRUE(warned) << report["warnings"].dump();
   // Resumed from a checkpoint after the second coarse step, the report counts
-  // the two steps since (the checkpoint's replies, replayed, were counted before).
+  // what the uninterrupted run counted: the checkpoint carries the counts, and
+  // its replies, replayed, are not counted again.
   std::string text;
   {
     std::ifstream scene(path);
@@ -186,16 +187,42 @@ TEST_F(GmhRun, FailedCellsStopTheRunOrAreAcceptedAndReported) {
   text.replace(text.find(out), out.size(), "output: {dir: " + (dir_ / "run").string() + ", checkpoint_interval: 4}");
   std::ofstream(path) << text;
   ASSERT_EQ(run(args, 120.0).code, 0);
-  for (const auto& e : fs::directory_iterator(dir_ / "run" / "checkpoints"))
-    if (e.path().filename() != "exchange-4") fs::remove_all(e.path());
+  // Every resume below starts from exchange 4 (a resumed run adds later checkpoints).
+  const auto keepOnlyExchange4 = [&] {
+    for (const auto& e : fs::directory_iterator(dir_ / "run" / "checkpoints"))
+      if (e.path().filename() != "exchange-4") fs::remove_all(e.path());
+  };
+  keepOnlyExchange4();
   args.push_back("--resume");
   const auto resumed = run(args, 120.0);
   ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
   std::ifstream again(dir_ / "run" / "run_report.json");
   const auto after = nlohmann::json::parse(again);
   EXPECT_EQ(after["resumed_from"]["exchange"].get<std::uint64_t>(), 4u);
-  EXPECT_EQ(after["figures"]["failed_cell_jobs"].get<double>(), 4.0);
+  EXPECT_EQ(after["figures"]["failed_cell_jobs"].get<double>(), 8.0);
+  EXPECT_EQ(after["figures"]["failed_cells"].get<double>(), 2.0);
   EXPECT_EQ(failedCellsSeries(dir_ / "run"), (std::vector<double>{0, 2, 2, 2, 2}));
+  // A checkpoint without the counts (an older coupler's) still resumes; the
+  // report then counts from the resume and says so.
+  const fs::path counts = dir_ / "run" / "checkpoints" / "exchange-4" / "couplings.bin";
+  ASSERT_TRUE(fs::exists(counts));
+  fs::remove(counts);
+  keepOnlyExchange4();
+  const auto older = run(args, 120.0);
+  ASSERT_EQ(older.code, 0) << older.out << older.err;
+  std::ifstream third(dir_ / "run" / "run_report.json");
+  const auto fromResume = nlohmann::json::parse(third);
+  EXPECT_EQ(fromResume["figures"]["failed_cell_jobs"].get<double>(), 4.0);
+  bool said = false;
+  for (const auto& w : fromResume["warnings"])
+    said = said || w.get<std::string>().find("after the resume only") != std::string::npos;
+  EXPECT_TRUE(said) << fromResume["warnings"].dump();
+  // A corrupt count is refused naming the file.
+  keepOnlyExchange4();
+  std::ofstream(counts, std::ios::binary) << "not a record";
+  const auto corrupt = run(args, 120.0);
+  EXPECT_NE(corrupt.code, 0);
+  EXPECT_NE((corrupt.out + corrupt.err).find("couplings.bin"), std::string::npos) << corrupt.out << corrupt.err;
 }
 
 TEST_F(GmhRun, AResumedRunContinuesBitForBit) {

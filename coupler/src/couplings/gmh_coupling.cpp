@@ -28,6 +28,7 @@
 #include "cosim/coupler/couplings/coupling.hpp"
 #include "cosim/coupler/mapping/nonlocal_operator.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/log.hpp"
 
@@ -294,6 +295,20 @@ class GmhCoupling final : public Coupling {
       f["nonlocal_local_fraction"] = localFraction_;
       f["nonlocal_smallest_eigenvalue"] = smallestEigenvalue_;
     }
+  }
+
+  // The failure counts of the report. Which cells are failing now comes back
+  // with the replay of the checkpoint's replies, which counts nothing.
+  bool keepsState() const override { return true; }
+  void save(util::BinaryWriter& out) const override {
+    out.pod(failedJobs_);
+    out.vec(std::vector<std::uint32_t>(failedCells_.begin(), failedCells_.end()));
+  }
+  void restore(util::BinaryReader& in) override {
+    failedJobs_ = in.pod<std::uint64_t>("failed unit-cell jobs");
+    const auto cells = in.vec<std::uint32_t>("failed unit cells");
+    if (cells.size() > failedJobs_) in.fail("failed unit cells", "more cells than failed jobs");
+    failedCells_ = std::set<std::uint32_t>(cells.begin(), cells.end());
   }
 
  private:

@@ -136,5 +136,6 @@ fs::path CheckpointStore::solverLastReply(const fs::path& dir, const std::string
 }
 
 fs::path CheckpointStore::analysisState(const fs::path& dir) { return dir / "analysis.bin"; }
+fs::path CheckpointStore::couplingState(const fs::path& dir) { return dir / "couplings.bin"; }
 
 }  // namespace cosim::coupler

@@ -1,5 +1,6 @@
 #include "cosim/coupler/run/coupler_run.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -228,6 +229,7 @@ class CouplerRun final : public ExchangeDriver {
     session_->awaitReplies(pending);
     for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
     if (scene_.reference) saveAnalysis(CheckpointStore::analysisState(dir));
+    if (keepsCouplingState()) saveCouplings(CheckpointStore::couplingState(dir));
     series_->flush();
     checkpoints_.commit(exchange_, time_, scene_.text, series_->rowCounts());
   }
@@ -256,7 +258,52 @@ class CouplerRun final : public ExchangeDriver {
     exchange_ = completed_ = point.exchange;
     time_ = point.time;
     if (scene_.reference) restoreAnalysis(CheckpointStore::analysisState(point.dir));
+    restoreCouplings(CheckpointStore::couplingState(point.dir));
     runCouplings({names_.begin(), names_.end()}, true);
+  }
+
+  static constexpr std::uint64_t kCouplingMagic = 0x31474e4c50554f43;  // "COUPLNG1"
+
+  bool keepsCouplingState() const {
+    return std::any_of(scene_.couplings.begin(), scene_.couplings.end(), [](const auto& c) { return c->keepsState(); });
+  }
+
+  /// Each coupling that keeps state: its name, then its record.
+  void saveCouplings(const fs::path& file) const {
+    std::ofstream out(file, std::ios::binary);
+    util::BinaryWriter w(out);
+    w.pod(kCouplingMagic);
+    for (const auto& c : scene_.couplings) {
+      if (!c->keepsState()) continue;
+      w.vec(std::vector<char>(c->name().begin(), c->name().end()));
+      c->save(w);
+    }
+    if (!out) throw std::runtime_error(file.string() + ": cannot write the couplings' state");
+  }
+
+  /// The couplings continue their counts from the checkpoint. A checkpoint of
+  /// a coupler before session 28 has none: the run goes on (the counts are
+  /// report figures, not physics), and the report says they start at the resume.
+  void restoreCouplings(const fs::path& file) {
+    if (!keepsCouplingState()) return;
+    if (!fs::exists(file)) {
+      const std::string m = "the checkpoint holds no state of the couplings (" + file.filename().string() +
+                            "): their counts in the report cover the exchanges after the resume only";
+      log::warn(m);
+      report_.warnings.push_back(m);
+      return;
+    }
+    std::ifstream in(file, std::ios::binary);
+    util::BinaryReader r(in, file.string());
+    if (r.pod<std::uint64_t>("couplings' state") != kCouplingMagic) r.fail("couplings' state", "not a couplings record");
+    for (const auto& c : scene_.couplings) {
+      if (!c->keepsState()) continue;
+      const auto name = r.vec<char>("coupling name");
+      if (std::string(name.begin(), name.end()) != c->name())
+        r.fail("coupling name", "expected '" + c->name() + "', found '" + std::string(name.begin(), name.end()) + "'");
+      c->restore(r);
+    }
+    if (in.peek() != std::char_traits<char>::eof()) r.fail("couplings' state", "bytes left after the records");
   }
 
   static constexpr std::uint64_t kAnalysisMagic = 0x31534c414e41534f;  // "OSANALS1"

@@ -16,6 +16,10 @@
 namespace cosim::io {
 class SeriesWriter;
 }
+namespace cosim::util {
+class BinaryWriter;
+class BinaryReader;
+}
 namespace cosim::config {
 class MapReader;
 }
@@ -165,6 +169,14 @@ class Coupling {
   /// Whether exchange() reads ctx.energies (they are asked for only then, or
   /// when a series row is written).
   virtual bool usesEnergies() const { return false; }
+  /// What the coupling has counted over the run for its report (failed
+  /// unit-cell jobs ...), into every checkpoint and back on a resume, so a
+  /// resumed run reports the uninterrupted run's figures. What it derives
+  /// from the solvers' replies comes back with the replay of the checkpoint's
+  /// replies instead; couplings without such counts keep no state.
+  virtual bool keepsState() const { return false; }
+  virtual void save(util::BinaryWriter& /*out*/) const {}
+  virtual void restore(util::BinaryReader& /*in*/) {}
 
  private:
   std::string name_;

@@ -40,6 +40,8 @@ class CheckpointStore {
   static std::filesystem::path solverLastReply(const std::filesystem::path& dir, const std::string& solver);
   /// The scene's reference solution's state (analysis.bin), when it has one.
   static std::filesystem::path analysisState(const std::filesystem::path& dir);
+  /// The couplings' counts (couplings.bin), when one of them keeps any.
+  static std::filesystem::path couplingState(const std::filesystem::path& dir);
 
  private:
   std::filesystem::path root_;
