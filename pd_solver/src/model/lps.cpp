@@ -442,7 +442,9 @@ class Lps final : public PdModel {
         const double L = length[q], w = weight[q], ek = extension[q];
         const double tSum = (Ai + A[jl]) * L + (Bi + B[jl]) * ek;
         const double Y = ek + L;
-        const double si = tSum * (w * V[jl]) / Y, sj = tSum * (w * Vi) / Y;
+        // Equal volumes (a lattice) give bitwise equal factors: one division.
+        const double si = tSum * (w * V[jl]) / Y;
+        const double sj = V[jl] == Vi ? si : tSum * (w * Vi) / Y;
         f0 += si * y0;
         f1 += si * y1;
         f2 += si * y2;
