@@ -16,7 +16,10 @@
 # L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15), L5_VARIANTS (0)
 # N more cells prepared with seeds 2 .. N + 1, each element's cell picked from
 # the N + 1 by its id (unit_cells.variants), L5_ON_FAILURE (stop) the workers'
-# on_failure, L5_MAX_STEPS (the scene's 200000) their relaxation budget.
+# on_failure, L5_MAX_STEPS (the scene's 200000) their relaxation budget,
+# L5_STRESS_FREE=PRESSURE,AFTER their stress_free_exit (e.g. 400,2000: a job
+# whose cell is below 400 Pa mean stress and unrelaxed after 2000 steps ends
+# there, failed).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -31,6 +34,8 @@ done
 for mode in $modes; do
   [[ $mode == local || $mode == nonlocal ]] || { echo "l5_biaxial.sh: mode '$mode' is not local or nonlocal" >&2; exit 2; }
 done
+[[ -z "${L5_STRESS_FREE:-}" || "$L5_STRESS_FREE" =~ ^[0-9.eE+-]+,[0-9]+$ ]] ||
+  { echo "l5_biaxial.sh: L5_STRESS_FREE must be PRESSURE,AFTER (e.g. 400,2000; got '$L5_STRESS_FREE')" >&2; exit 2; }
 work=${L5_WORK:-$(mktemp -d /tmp/gmh-l5.XXXXXX)}
 mkdir -p "$work"
 source "$root/bench/gmh/gmh_scene.sh"
@@ -61,7 +66,9 @@ for mesh in $meshes; do
       ${L5_ON_FAILURE:+--set "solvers.cells_a.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
       ${L5_ON_FAILURE:+--set "solvers.cells_b.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
       ${L5_MAX_STEPS:+--set "solvers.cells_a.params.unit_cells.max_steps=$L5_MAX_STEPS"} \
-      ${L5_MAX_STEPS:+--set "solvers.cells_b.params.unit_cells.max_steps=$L5_MAX_STEPS"}
+      ${L5_MAX_STEPS:+--set "solvers.cells_b.params.unit_cells.max_steps=$L5_MAX_STEPS"} \
+      ${L5_STRESS_FREE:+--set "solvers.cells_a.params.unit_cells.stress_free_exit={pressure: ${L5_STRESS_FREE%,*}, after: ${L5_STRESS_FREE#*,}}"} \
+      ${L5_STRESS_FREE:+--set "solvers.cells_b.params.unit_cells.stress_free_exit={pressure: ${L5_STRESS_FREE%,*}, after: ${L5_STRESS_FREE#*,}}"}
     rm -rf "${work:?}/$mode-$mesh"  # a reused L5_WORK: mv would nest the new run inside the old one
     mv "$work/run" "$work/$mode-$mesh"
     mv "$work/run.log" "$work/$mode-$mesh.log"

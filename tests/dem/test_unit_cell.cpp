@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -262,6 +263,69 @@ TEST_F(DemUnitCell, OnFailureContinueReturnsTheFailedCellFlagged) {
     EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
     EXPECT_NE(std::string(e.what()).find("unit_cells.on_failure: expected stop"), std::string::npos) << e.what();
   }
+}
+
+TEST_F(DemUnitCell, StressFreeExitEndsTheJobOfAnUnloadedCellOnly) {
+  // Cell 0 expanded by 2 % per axis: every contact opens, it carries no
+  // stress and can never relax (no contacts, no I_uf). With the exit its job
+  // ends at the probe (45 steps, rounded up to the I_uf checks of 10), failed;
+  // without, it spends the budget. Cell 1, compressed, keeps its load: the
+  // exit leaves its job bitwise as it was. The setting survives a checkpoint.
+  const std::string file = (dir_ / "cell.ckpt").string();
+  const std::string base = ", max_steps: 3000, load_steps: 10, on_failure: continue";
+  DemSolver with, without;
+  setupWorker(with, workerScene(file, base + ", stress_free_exit: {pressure: 400, after: 45}"));
+  setupWorker(without, workerScene(file, base));
+  const std::string ckpt = (dir_ / "stress_free.ckpt").string();
+  ASSERT_GT(with.checkpoint(ckpt), 0u);
+  DemSolver restored;
+  restored.restore(ckpt);
+  std::vector<double> inc = isotropic(2e-2);
+  const std::vector<double> squeeze = isotropic(-1e-3);
+  inc.insert(inc.end(), squeeze.begin(), squeeze.end());
+  Exchange b;
+  const auto full = b.run(without, {0, 1}, inc);
+  ASSERT_EQ(full.getFailed().size(), 2u);
+  EXPECT_TRUE(full.getFailed()[0]);
+  EXPECT_EQ(full.getRelaxationSteps()[0], 3010u);
+  for (DemSolver* s : {&with, &restored}) {
+    Exchange a;
+    const auto r = a.run(*s, {0, 1}, inc);
+    ASSERT_EQ(r.getFailed().size(), 2u);
+    EXPECT_TRUE(r.getFailed()[0]);
+    EXPECT_FALSE(r.getFailed()[1]);
+    EXPECT_EQ(r.getRelaxationSteps()[0], 60u);  // 10 load steps + 50
+    const auto sig = wire::view(r.getStresses()), ref = wire::view(full.getStresses());
+    EXPECT_LT(std::abs(sig[0] + sig[4] + sig[8]) / 3, 400.0);
+    EXPECT_GT(r.getRelaxationSteps()[1], 60u);  // cell 1 relaxed past the probe
+    EXPECT_EQ(r.getRelaxationSteps()[1], full.getRelaxationSteps()[1]);
+    EXPECT_EQ(0, std::memcmp(&sig[9], &ref[9], 9 * sizeof(double)));
+  }
+  // The job's report says why it ended early.
+  DemSystem lone = cloneCell(*cell_);
+  RelaxSettings set = relaxSettings();
+  set.maxSteps = 3000;
+  set.loadSteps = 10;
+  set.stressFreePressure = 400.0;
+  set.stressFreeAfter = 200;
+  const JobOutcome o = runUnitCellJob(lone, {2e-2, 0, 0, 0, 2e-2, 0, 0, 0, 2e-2}, set);
+  EXPECT_TRUE(o.endedStressFree);
+  EXPECT_NE(o.problem().find("ended early, stress-free"), std::string::npos) << o.problem();
+  // Bad settings name the key.
+  auto refused = [&](const std::string& extra) {
+    DemSolver bad;
+    try {
+      setupWorker(bad, workerScene(file, extra));
+    } catch (const wire::SolverError& e) {
+      EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refused(", stress_free_exit: {pressure: 0}").find("stress_free_exit.pressure"), std::string::npos);
+  EXPECT_NE(refused(", stress_free_exit: {pressure: 400, after: 0}").find("stress_free_exit.after: must be at least 1"),
+            std::string::npos);
+  EXPECT_NE(refused(", stress_free_exit: {pressure: 400, when: 3}").find("unknown key 'when'"), std::string::npos);
 }
 
 TEST_F(DemUnitCell, WorkerLoadsWeakenedCellAndRefusesBadParams) {

@@ -24,7 +24,9 @@ using wire::SolverError;
 using Code = proto::Error::Code;
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'G', 'M', 'H'};
-constexpr std::uint32_t kVersion = 2;  // 2: on_failure; 1 (stop) still restores
+// 3: the stress-free exit; 2: on_failure (older files restore with the exit
+// off, and version 1 as on_failure: stop)
+constexpr std::uint32_t kVersion = 3;
 
 /// A prepared cell from `file` (relative: against baseDir, then as given);
 /// `fail(message)` reports a problem where the file was named.
@@ -111,6 +113,12 @@ RelaxSettings readRelaxSettings(const YamlSection& s, const std::vector<DemSyste
     s.fail("on_failure", "expected stop (the advance fails naming the cells) or continue (their stresses go back "
                          "as they stand, flagged failed), got '" + onFailure + "'");
   r.continueOnFailure = onFailure == "continue";
+  if (s.has("stress_free_exit")) {
+    const YamlSection e = s.child("stress_free_exit", {"pressure", "after"});
+    r.stressFreePressure = e.positive("pressure");
+    r.stressFreeAfter = e.integer("after", 2000);
+    if (r.stressFreeAfter < 1) e.fail("after", "must be at least 1 relaxation step");
+  }
   return r;
 }
 
@@ -132,7 +140,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   const YamlSection params(node, sceneFile, "params", {"unit_cells"});
   const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "stride", "weakened", "dt", "dt_factor",
                                                     "tolerance", "max_steps", "load_steps", "min_coordination",
-                                                    "mass_damping", "on_failure", "variants"});
+                                                    "mass_damping", "on_failure", "variants", "stress_free_exit"});
   // The cells' starting states: `file`, and the optional `variants` (cells
   // prepared with other seeds), one chosen per cell id by variantOf.
   const YAML::Node variants = s.node("variants");
@@ -255,6 +263,7 @@ std::uint64_t UnitCellWorker::checkpoint(const std::string& path) const {
   pod(relax_.dt); pod(relax_.tolerance); pod(relax_.maxSteps); pod(relax_.loadSteps); pod(relax_.checkEvery);
   pod(relax_.minCoordination);
   pod(static_cast<std::uint8_t>(relax_.continueOnFailure));
+  pod(relax_.stressFreePressure); pod(relax_.stressFreeAfter);
   pod(time); pod(steps);
   pod(static_cast<std::uint64_t>(cells_.size()));
   for (std::size_t k = 0; k < cells_.size(); ++k) {
@@ -278,7 +287,7 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::restore(const std::string& path)
   };
   std::uint32_t version = 0;
   pod(version);
-  if (version != 1 && version != kVersion)
+  if (version < 1 || version > kVersion)
     throw std::runtime_error(path + ": unsupported unit-cell worker checkpoint version " + std::to_string(version));
   RelaxSettings r;
   pod(r.dt); pod(r.tolerance); pod(r.maxSteps); pod(r.loadSteps); pod(r.checkEvery); pod(r.minCoordination);
@@ -287,6 +296,11 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::restore(const std::string& path)
     pod(proceed);
     if (proceed > 1) throw std::runtime_error(path + ": corrupt unit-cell worker checkpoint (on_failure)");
     r.continueOnFailure = proceed == 1;
+  }
+  if (version >= 3) {
+    pod(r.stressFreePressure); pod(r.stressFreeAfter);
+    if (!(r.stressFreePressure >= 0.0) || r.stressFreeAfter < 0)
+      throw std::runtime_error(path + ": corrupt unit-cell worker checkpoint (stress-free exit)");
   }
   auto worker = std::make_unique<UnitCellWorker>(r);
   pod(worker->time); pod(worker->steps);

@@ -94,19 +94,28 @@ struct RelaxSettings {
   // as it stands, flagged failed, so the coarse problem can load or unload
   // the cell again (the coupler reports every such job with its numbers).
   bool continueOnFailure = false;
+  // A cell that has lost its load (|mean stress| below stressFreePressure)
+  // and is still above the tolerance after stressFreeAfter relaxation steps
+  // ends its job there, failed: such a cell carries no stress whatever the
+  // budget, and spending the budget on it dominated L4 and L5 (0 = off).
+  double stressFreePressure = 0.0;  // [Pa]
+  long stressFreeAfter = 0;
 };
 
 struct JobOutcome {
   CellMeasures measures;
   long steps = 0;  // load + relaxation steps
   bool relaxed = false;
+  bool endedStressFree = false;  // ended early by the stress-free exit (RelaxSettings)
   std::string problem() const;  // empty when the job succeeded under the given settings
-  double minCoordination = 0.0, tolerance = 0.0;
+  double minCoordination = 0.0, tolerance = 0.0, stressFreePressure = 0.0;
   long budget = 0;
 };
 
 /// Applies the strain increment (row-major 3x3, Liu Eq. 60) affinely over
-/// loadSteps (L = increment / (loadSteps dt)), then relaxes with L = 0.
+/// loadSteps (L = increment / (loadSteps dt)), then relaxes with L = 0 until
+/// I_uf is below the tolerance, the budget is spent, or the stress-free exit
+/// ends the job.
 JobOutcome runUnitCellJob(DemSystem& cell, const std::array<double, 9>& strainIncrement, const RelaxSettings& settings);
 
 }  // namespace cosim::dem
