@@ -330,6 +330,8 @@ std::string JobOutcome::problem() const {
          num(-measures.pressure) + " Pa)";
 }
 
+namespace {
+
 /// The job's relaxation (Liu Sec. 2.3.2): as relax(), with the stress-free
 /// exit checked once, after stressFreeAfter steps rounded up to a whole
 /// number of I_uf checks, so a job the exit does not end takes bitwise the
@@ -349,6 +351,8 @@ long relaxJob(DemSystem& cell, const RelaxSettings& set, bool& endedStressFree) 
   }
   return steps + relax(cell, set.dt, set.tolerance, set.maxSteps - steps, set.checkEvery);
 }
+
+}  // namespace
 
 JobOutcome runUnitCellJob(DemSystem& cell, const std::array<double, 9>& strainIncrement, const RelaxSettings& set) {
   JobOutcome out;
