@@ -100,7 +100,7 @@ class Lps final : public PdModel {
     // (squaredEnergyDensity).
     if (!extensionsAreCurrent(body)) {
       const bool squares = !corrected_ && intact(body);
-      if (squares && pairwise(body)) pairExtensions<true>(body);
+      if (squares && onOneThread(body)) pairExtensions<true>(body);  // pairwise(), intact already known
       else if (squares) updateExtensions<true>(body);
       else updateExtensions<false>(body);
     }
@@ -304,14 +304,16 @@ class Lps final : public PdModel {
   /// Whether the body's bond loops run on this thread alone (a small body,
   /// one thread, or bodies already shared out over threads) and no bond is
   /// broken (the pair lists carry no flags; LPS has no breakage criterion).
-  bool pairwise(const BodyContext& body) const {
+  bool pairwise(const BodyContext& body) const { return onOneThread(body) && intact(body); }
+
+  /// The body's bond loops run on this thread alone.
+  static bool onOneThread([[maybe_unused]] const BodyContext& body) {
 #ifdef _OPENMP
-    const bool oneThread = body.end - body.begin <= static_cast<std::size_t>(kOmpMinParticles) ||
-                           omp_get_max_threads() == 1 || omp_in_parallel();
+    return body.end - body.begin <= static_cast<std::size_t>(kOmpMinParticles) || omp_get_max_threads() == 1 ||
+           omp_in_parallel();
 #else
-    const bool oneThread = true;
+    return true;
 #endif
-    return oneThread && intact(body);
   }
 
   /// No bond of the body is broken. Asked every force evaluation (a restore
