@@ -86,6 +86,37 @@ TEST(PdBodies, NeighbourListsAreSymmetricWithPartialVolumes) {
   EXPECT_EQ(b.offset[centre + 1] - b.offset[centre], static_cast<std::size_t>(expected));
 }
 
+// The truncated rule (Hartmann's family: every partner within delta) on the
+// H2 plate's lattice, whose positions 0.2 + (i - 9.5) 0.02 put 10 of the 18
+// axial pairs two spacings apart at 0.04 + 1 ulp: every pair of lattice
+// offsets with |d| <= 2 is bonded, prod (n_k - |d_k|) of each offset, and the
+// pairs at |xi| = delta carry half their volume.
+TEST(PdBodies, TruncatedFamilyKeepsEveryPartnerAtTheHorizon) {
+  auto plate = test::box("plate", "lps", 20, 20, 5, 0.02, 2.0);
+  plate.options.partialVolume = PartialVolume::Truncated;
+  PdSystem sys;
+  sys.addBody(plate);
+  sys.finalise();
+  const auto& b = sys.bodies()[0].bonds;
+  const int n[3] = {20, 20, 5};
+  std::size_t expected = 0;
+  for (int x = -2; x <= 2; ++x)
+    for (int y = -2; y <= 2; ++y)
+      for (int z = -2; z <= 2; ++z) {
+        if ((x == 0 && y == 0 && z == 0) || x * x + y * y + z * z > 4) continue;
+        expected += static_cast<std::size_t>((n[0] - std::abs(x)) * (n[1] - std::abs(y)) * (n[2] - std::abs(z)));
+      }
+  EXPECT_EQ(expected, 51332u);
+  EXPECT_EQ(b.count(), expected);
+  std::size_t atHorizon = 0;
+  for (std::size_t k = 0; k < b.count(); ++k) {
+    if (std::abs(b.length[k] - 0.04) > 1e-12) continue;
+    ++atHorizon;
+    EXPECT_NEAR(b.volumeFraction[k], 0.5, 1e-9);
+  }
+  EXPECT_EQ(atHorizon, 2u * (18 * 20 * 5 + 20 * 18 * 5 + 20 * 20 * 3));
+}
+
 TEST(PdBodies, HybridSurfaceParticlesQuasiRadiusAndNormals) {
   const double h = 2e-3;
   PdSystem sys;
