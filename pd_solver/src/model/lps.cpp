@@ -341,6 +341,18 @@ class Lps final : public PdModel {
       pairOffset_[il + 1] = pairPartner_.size();
     }
     pairExtension_.assign(pairPartner_.size(), 0.0);
+    // A lattice body's particles share one volume V: then both ends of a pair
+    // add the same (w beta V) |xi| e to theta and take the same force factor,
+    // formed once from per-pair constants (bitwise the products the general
+    // loops form: ((w V) |xi|) e and t (w V) / |Y|).
+    const double* V = body.particles.volume.data() + body.begin;
+    uniformVolume_ = n > 0 && std::all_of(V, V + n, [V](double v) { return v == V[0]; });
+    pairWeightVolume_.clear(), pairThetaCoef_.clear();
+    if (!uniformVolume_) return;
+    for (std::size_t q = 0; q < pairWeight_.size(); ++q) {
+      pairWeightVolume_.push_back(pairWeight_[q] * V[0]);
+      pairThetaCoef_.push_back(pairWeightVolume_.back() * pairLength_[q]);
+    }
   }
 
   void pairForces(const BodyContext& body, std::vector<double>& force) {
@@ -355,6 +367,12 @@ class Lps final : public PdModel {
   // like theta, so bitwise the row loops' S.
   template <bool Squares = false>
   void pairExtensions(const BodyContext& body) const {
+    if (uniformVolume_) pairExtensionsOf<Squares, true>(body);
+    else pairExtensionsOf<Squares, false>(body);
+  }
+
+  template <bool Squares, bool Uniform>
+  void pairExtensionsOf(const BodyContext& body) const {
     currentPositions(body, x_);
     const std::size_t n = body.end - body.begin;
     const double* x = x_.data();
@@ -367,6 +385,8 @@ class Lps final : public PdModel {
     const std::uint32_t* partner = pairPartner_.data();
     const double* length = pairLength_.data();
     const double* weight = pairWeight_.data();
+    const double* weightVolume = pairWeightVolume_.data();  // Uniform: w beta V
+    const double* thetaCoef = pairThetaCoef_.data();        // Uniform: (w beta V) |xi|
     const double* mass = m_.data();
     double* extension = pairExtension_.data();
     double* theta = theta_.data();
@@ -379,14 +399,26 @@ class Lps final : public PdModel {
         const std::size_t jl = partner[q];
         const double* xj = x + 3 * jl;
         const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
-        const double L = length[q], w = weight[q];
+        const double L = length[q];
         const double ek = std::sqrt(y0 * y0 + y1 * y1 + y2 * y2) - L;
         extension[q] = ek;
-        th += w * V[jl] * L * ek;
-        theta[jl] += w * Vi * L * ek;
-        if constexpr (Squares) {
-          sq += w * V[jl] * ek * ek;
-          squares[jl] += w * Vi * ek * ek;
+        if constexpr (Uniform) {
+          const double t = thetaCoef[q] * ek;
+          th += t;
+          theta[jl] += t;
+          if constexpr (Squares) {
+            const double s2 = weightVolume[q] * ek * ek;
+            sq += s2;
+            squares[jl] += s2;
+          }
+        } else {
+          const double w = weight[q];
+          th += w * V[jl] * L * ek;
+          theta[jl] += w * Vi * L * ek;
+          if constexpr (Squares) {
+            sq += w * V[jl] * ek * ek;
+            squares[jl] += w * Vi * ek * ek;
+          }
         }
       }
       theta[il] = mass[il] > 0.0 ? 3.0 * th / mass[il] : 0.0;
@@ -420,6 +452,12 @@ class Lps final : public PdModel {
 
   // s = (t_IJ + t_JI) w beta V_J / |Y| per direction, f_I = V_I sum s Y (Eq. 14).
   void pairBondForces(const BodyContext& body, std::vector<double>& force) {
+    if (uniformVolume_) pairBondForcesOf<true>(body, force);
+    else pairBondForcesOf<false>(body, force);
+  }
+
+  template <bool Uniform>
+  void pairBondForcesOf(const BodyContext& body, std::vector<double>& force) {
     const std::size_t n = body.end - body.begin;
     const double* x = x_.data();
     const double* V = body.particles.volume.data() + body.begin;
@@ -432,6 +470,7 @@ class Lps final : public PdModel {
     const std::uint32_t* partner = pairPartner_.data();
     const double* length = pairLength_.data();
     const double* weight = pairWeight_.data();
+    const double* weightVolume = pairWeightVolume_.data();  // Uniform: w beta V
     const double* extension = pairExtension_.data();
     for (std::size_t il = 0; il < n; ++il) {
       const double xi0 = x[3 * il], xi1 = x[3 * il + 1], xi2 = x[3 * il + 2];
@@ -441,12 +480,18 @@ class Lps final : public PdModel {
         const std::size_t jl = partner[q];
         const double* xj = x + 3 * jl;
         const double y0 = xj[0] - xi0, y1 = xj[1] - xi1, y2 = xj[2] - xi2;
-        const double L = length[q], w = weight[q], ek = extension[q];
+        const double L = length[q], ek = extension[q];
         const double tSum = (Ai + A[jl]) * L + (Bi + B[jl]) * ek;
         const double Y = ek + L;
-        // Equal volumes (a lattice) give bitwise equal factors: one division.
-        const double si = tSum * (w * V[jl]) / Y;
-        const double sj = V[jl] == Vi ? si : tSum * (w * Vi) / Y;
+        double si, sj;
+        if constexpr (Uniform) {
+          si = sj = tSum * weightVolume[q] / Y;
+        } else {
+          // Equal volumes give bitwise equal factors: one division.
+          const double w = weight[q];
+          si = tSum * (w * V[jl]) / Y;
+          sj = V[jl] == Vi ? si : tSum * (w * Vi) / Y;
+        }
         f0 += si * y0;
         f1 += si * y1;
         f2 += si * y2;
@@ -579,6 +624,8 @@ class Lps final : public PdModel {
   std::vector<std::size_t> pairOffset_;
   std::vector<std::uint32_t> pairPartner_;  // body-local index of the later particle
   std::vector<double> pairLength_, pairWeight_;  // |xi|, w beta
+  bool uniformVolume_ = false;                    // every particle of the body has one volume V
+  std::vector<double> pairWeightVolume_, pairThetaCoef_;  // uniformVolume_ only: w beta V, (w beta V) |xi|
   mutable std::vector<double> pairExtension_;      // e of the pair loops (scratch, as e_)
   std::vector<double> pairForce_;  // force sums, 3 per particle
   std::vector<double> coefA_, coefB_;
