@@ -13,7 +13,8 @@
 # The top moves at 0.4 m/s whatever the step count: 5e-5 axial strain per step.
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
 # Environment: COSIM_BIN (default build/bin), L5_WORK (default a fresh /tmp dir),
-# L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15), L5_VARIANTS (0)
+# L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15), L5_RADIUS (R of the
+# nonlocal runs [m], default 6.75e-3), L5_VARIANTS (0)
 # N more cells prepared with seeds 2 .. N + 1, each element's cell picked from
 # the N + 1 by its id (unit_cells.variants), L5_ON_FAILURE (stop) the workers'
 # on_failure, L5_MAX_STEPS (the scene's 200000) their relaxation budget,
@@ -28,6 +29,8 @@ steps=${2:-1000}
 meshes=${3:-6x12 8x16 12x24}
 modes=${4:-local nonlocal}
 beta=${L5_LOCAL_FRACTION:-0.15}
+radius=${L5_RADIUS:-6.75e-3}
+[[ "$radius" =~ ^[0-9.]+([eE][+-]?[0-9]+)?$ ]] || { echo "l5_biaxial.sh: L5_RADIUS must be a length in m (got '$radius')" >&2; exit 2; }
 for mesh in $meshes; do
   [[ $mesh =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]] || { echo "l5_biaxial.sh: mesh '$mesh' is not NXxNY (e.g. 8x16)" >&2; exit 2; }
 done
@@ -54,7 +57,7 @@ for mesh in $meshes; do
   half=$(((cells + 1) / 2))  # cells_a: the even ids, cells_b: the odd ones (stride 2)
   for mode in $modes; do
     extra=()
-    [[ $mode == nonlocal ]] && extra=(--set "couplings.cells.nonlocal={radius: 6.75e-3, local_fraction: $beta}")
+    [[ $mode == nonlocal ]] && extra=(--set "couplings.cells.nonlocal={radius: $radius, local_fraction: $beta}")
     echo "== $mode $mesh ($cells cells)"
     t0=$(date +%s)
     gmh_run "$root/configs/gmh/l5_biaxial.yaml" --set "schedule.coarse_steps=$steps" \
