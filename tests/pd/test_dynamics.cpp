@@ -8,8 +8,11 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 
 #include "pd_test_util.hpp"
 
@@ -251,6 +254,47 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
                                 std::string(model) + (corrected ? " corrected" : " uncorrected"));
   expectSameBitsAfterMotion(run(1, "lps", false, true), run(2, "lps", false, true), "lps uncorrected staggered");
   omp_set_num_threads(saved);
+}
+
+TEST(PdDynamicsThreads, UnequalVolumesGiveTheRowLoopsBits) {
+  // The lattice above has one volume, so its pair loops take each pair's
+  // theta term and force factor once for both ends. A point cloud whose
+  // volumes differ (+-10 %) takes the general pair loops, which must give
+  // the row loops' bits too.
+  const double h = 1e-3;
+  const auto file = std::filesystem::temp_directory_path() / "pd_test_unequal_volumes.txt";
+  {
+    std::ofstream out(file);
+    out.precision(17);
+    for (int i = 0; i < 18; ++i)
+      for (int j = 0; j < 18; ++j)
+        for (int k = 0; k < 18; ++k)
+          out << (i + 0.5) * h << ' ' << (j + 0.5) * h << ' ' << (k + 0.5) * h << ' '
+              << h * h * h * (1.0 + 0.1 * std::sin(1.7 * i + 2.3 * j + 0.9 * k)) << '\n';
+  }
+  auto run = [&file, h](int threads, bool staggered) {
+    omp_set_num_threads(threads);
+    auto spec = test::box("cloud", "lps", 18, 18, 18, h, 3.0);
+    spec.shape = Shape::Points;
+    spec.pointsFile = file.string();
+    spec.spacing = h;
+    PdSystem sys;
+    sys.addBody(spec);
+    sys.finalise();
+    const auto& V = sys.particles().volume;
+    EXPECT_NE(*std::min_element(V.begin(), V.end()), *std::max_element(V.begin(), V.end()));
+    randomVelocities(sys.particles(), 1.0);
+    for (int s = 0; s < 5; ++s) {
+      if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
+      else sys.step(0.5 * sys.criticalTimeStep());
+    }
+    return endOf(sys);
+  };
+  const int saved = omp_get_max_threads();
+  expectSameBitsAfterMotion(run(1, false), run(2, false), "lps, unequal volumes");
+  expectSameBitsAfterMotion(run(1, true), run(2, true), "lps, unequal volumes, staggered");
+  omp_set_num_threads(saved);
+  std::filesystem::remove(file);
 }
 
 TEST(PdDynamicsThreads, ManySmallBodiesShareThreadsBodyByBody) {
