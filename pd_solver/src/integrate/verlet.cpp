@@ -233,15 +233,14 @@ void PdSystem::stepStaggered(double dt) {
   // calls the constraints only for constrained particles and skips the work
   // terms and the first kick of particles without external force (each is
   // exactly zero: the state and the work are bitwise the same, up to the
-  // sign of a zero).
+  // sign of a zero). The second pass finds v^C in the velocities; only the
+  // kicked particles keep v_{n-1/2} aside (for the others it is v^C).
   const std::size_t n = particles_.size();
   computeExternal();
   velocityBefore_.resize(3 * n);
-  velocityCoupled_.resize(3 * n);
   double* __restrict v = particles_.velocity.data();
   double* __restrict u = particles_.displacement.data();
   double* __restrict vOld = velocityBefore_.data();
-  double* __restrict vc = velocityCoupled_.data();
   const double* __restrict m = particles_.mass.data();
   const double* __restrict fe = particles_.externalForce.data();
   const std::uint32_t* constrained = constraintOffset_.data();
@@ -251,16 +250,15 @@ void PdSystem::stepStaggered(double dt) {
     const double* fei = fe + 3 * i;
     const bool loaded = fei[0] != 0.0 || fei[1] != 0.0 || fei[2] != 0.0;
     const bool bound = constrained[i] != constrained[i + 1];
-    for (std::size_t a = 0; a < 3; ++a) vOld[3 * i + a] = vc[3 * i + a] = vi[a];
     // A free particle without external force neither kicks nor moves here.
     if (!loaded && !bound) continue;
+    for (std::size_t a = 0; a < 3; ++a) vOld[3 * i + a] = vi[a];
     for (std::size_t a = 0; a < 3; ++a) vi[a] += dt * fei[a] / m[i];
     if (bound) constrainParticle(i, vi);
     for (std::size_t a = 0; a < 3; ++a) {
       const double du = dt * (vi[a] - vOld[3 * i + a]);
       u[3 * i + a] += du;
       if (loaded) w += fei[a] * du;
-      vc[3 * i + a] = vi[a];
     }
   }
   computeInternal();
@@ -268,11 +266,17 @@ void PdSystem::stepStaggered(double dt) {
   for (std::size_t i = 0; i < n; ++i) {
     double* vi = v + 3 * i;
     const double* fei = fe + 3 * i;
-    for (std::size_t a = 0; a < 3; ++a) vi[a] += dt * fi[3 * i + a] / m[i];
-    if (constrained[i] != constrained[i + 1]) constrainParticle(i, vi);
     const bool loaded = fei[0] != 0.0 || fei[1] != 0.0 || fei[2] != 0.0;
+    const bool bound = constrained[i] != constrained[i + 1];
+    double before[3], coupled[3];  // v_{n-1/2} and v^C
     for (std::size_t a = 0; a < 3; ++a) {
-      const double du = dt * (vi[a] - vc[3 * i + a]) + dt * vOld[3 * i + a];
+      coupled[a] = vi[a];
+      before[a] = loaded || bound ? vOld[3 * i + a] : vi[a];
+    }
+    for (std::size_t a = 0; a < 3; ++a) vi[a] += dt * fi[3 * i + a] / m[i];
+    if (bound) constrainParticle(i, vi);
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double du = dt * (vi[a] - coupled[a]) + dt * before[a];
       u[3 * i + a] += du;
       if (loaded) w += fei[a] * du;
     }

@@ -37,6 +37,9 @@ class Lps final : public PdModel {
         weight_[k] = w(b.length[k], body.horizon) * b.volumeFraction[k];
         m_[i] += weight_[k] * b.length[k] * b.length[k] * p.volume[b.neighbor[k]];  // Eq. 19
       }
+    // alpha = 15 G / m (Eq. 25) per particle, fixed with m.
+    alpha_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) alpha_[i] = m_[i] > 0.0 ? 15.0 * G_ / m_[i] : 0.0;
     buildReverse(body);
     buildPairs(body);
     if (body.options.surfaceCorrection) surfaceCorrection(body);
@@ -149,8 +152,7 @@ class Lps final : public PdModel {
   /// Eq. 24 for one particle from its deviatoric sum sum h w (e^d)^2 V_J.
   double particleEnergyDensity(std::size_t il, double dev) const {
     if (!(m_[il] > 0.0)) return 0.0;
-    const double alpha = 15.0 * G_ / m_[il];
-    return 0.5 * K_ * theta_[il] * theta_[il] + 0.5 * alpha * dev;
+    return 0.5 * K_ * theta_[il] * theta_[il] + 0.5 * alpha_[il] * dev;
   }
 
   /// Eq. 24 from the sweep's S = sum w V e^2 (uncorrected, no broken bond).
@@ -254,7 +256,7 @@ class Lps final : public PdModel {
     const double* wv = weightVolume_.data();
     const double* e = e_.data();
     const double* A = coefA_.data();
-    const double* B = coefB_.data();
+    const double* B = alpha_.data();
     const std::size_t first = body.begin;
 #pragma omp parallel for schedule(dynamic, 256) if (n > kOmpMinParticles)
     for (long il = 0; il < n; ++il) {
@@ -279,15 +281,12 @@ class Lps final : public PdModel {
     }
   }
 
-  // Per-particle A = 3 K theta / m - alpha theta / 3 and B = alpha of t_IJ (see above).
+  // Per-particle A = 3 K theta / m - alpha theta / 3 of t_IJ (see above); B
+  // is alpha_, fixed.
   void particleCoefficients(long n) {
     coefA_.resize(static_cast<std::size_t>(n));
-    coefB_.resize(static_cast<std::size_t>(n));
-    for (std::size_t il = 0; il < coefA_.size(); ++il) {
-      const double alpha = m_[il] > 0.0 ? 15.0 * G_ / m_[il] : 0.0;
-      coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha * theta_[il] / 3.0 : 0.0;
-      coefB_[il] = alpha;
-    }
+    for (std::size_t il = 0; il < coefA_.size(); ++il)
+      coefA_[il] = m_[il] > 0.0 ? 3.0 * K_ * theta_[il] / m_[il] - alpha_[il] * theta_[il] / 3.0 : 0.0;
   }
 
   // ---- Pairwise loops (uncorrected LPS on one thread) ----------------------
@@ -462,7 +461,7 @@ class Lps final : public PdModel {
     const double* x = x_.data();
     const double* V = body.particles.volume.data() + body.begin;
     const double* A = coefA_.data();
-    const double* B = coefB_.data();
+    const double* B = alpha_.data();
     pairForce_.assign(3 * n, 0.0);
     double* sums = pairForce_.data();
     // Data pointers taken once, as in pairExtensions.
@@ -513,7 +512,7 @@ class Lps final : public PdModel {
     const auto& b = body.bonds;
     const auto& p = body.particles;
     if (!(m_[il] > 0.0)) return;
-    const double alpha = 15.0 * G_ / m_[il];
+    const double alpha = alpha_[il];
     double S = 0.0;
     if (corrected_)
       for (std::size_t k = b.offset[il]; k < b.offset[il + 1]; ++k) {
@@ -628,7 +627,8 @@ class Lps final : public PdModel {
   std::vector<double> pairWeightVolume_, pairThetaCoef_;  // uniformVolume_ only: w beta V, (w beta V) |xi|
   mutable std::vector<double> pairExtension_;      // e of the pair loops (scratch, as e_)
   std::vector<double> pairForce_;  // force sums, 3 per particle
-  std::vector<double> coefA_, coefB_;
+  std::vector<double> coefA_;  // per particle A of t_IJ (particleCoefficients)
+  std::vector<double> alpha_;  // per particle alpha = 15 G / m (Eq. 25), B of t_IJ
 };
 
 }  // namespace

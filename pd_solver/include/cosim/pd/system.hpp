@@ -205,7 +205,7 @@ class PdSystem {
   std::vector<double> coupling_;
   std::vector<LinearisedCoupling> linearised_;
   std::vector<double> externalPrev_;
-  std::vector<double> velocityBefore_, velocityCoupled_;  // stepStaggered scratch
+  std::vector<double> velocityBefore_;  // stepStaggered scratch: v_{n-1/2} of the kicked particles
   // Each particle's boundary-condition entries (condition, position in its
   // list) in the conditions' order, rows by particle (built at finalise).
   std::vector<std::uint32_t> constraintOffset_;
