@@ -210,6 +210,17 @@ struct RunEnd {
 
 RunEnd endOf(const PdSystem& sys) { return {sys.particles().displacement, sys.energies().strain}; }
 
+/// Random velocities, five steps of half the critical step (Verlet or
+/// staggered), and the end.
+RunEnd moveFiveSteps(PdSystem& sys, bool staggered) {
+  randomVelocities(sys.particles(), 1.0);
+  for (int s = 0; s < 5; ++s) {
+    if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
+    else sys.step(0.5 * sys.criticalTimeStep());
+  }
+  return endOf(sys);
+}
+
 /// Two runs' displacements and strain energies are bitwise equal, and the
 /// particles moved.
 void expectSameBitsAfterMotion(const RunEnd& a, const RunEnd& b, const std::string& label) {
@@ -240,12 +251,7 @@ TEST(PdDynamicsThreads, ResultsIndependentOfThreadCount) {
     spec.options.criticalStretch = std::string(model) == "pmb" ? 1e-3 : 0.0;
     sys.addBody(spec);
     sys.finalise();
-    randomVelocities(sys.particles(), 1.0);
-    for (int s = 0; s < 5; ++s) {
-      if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
-      else sys.step(0.5 * sys.criticalTimeStep());
-    }
-    return endOf(sys);
+    return moveFiveSteps(sys, staggered);
   };
   const int saved = omp_get_max_threads();
   for (const char* model : {"pmb", "lps"})
@@ -283,12 +289,7 @@ TEST(PdDynamicsThreads, UnequalVolumesGiveTheRowLoopsBits) {
     sys.finalise();
     const auto& V = sys.particles().volume;
     EXPECT_NE(*std::min_element(V.begin(), V.end()), *std::max_element(V.begin(), V.end()));
-    randomVelocities(sys.particles(), 1.0);
-    for (int s = 0; s < 5; ++s) {
-      if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
-      else sys.step(0.5 * sys.criticalTimeStep());
-    }
-    return endOf(sys);
+    return moveFiveSteps(sys, staggered);
   };
   const int saved = omp_get_max_threads();
   expectSameBitsAfterMotion(run(1, false), run(2, false), "lps, unequal volumes");
@@ -314,12 +315,7 @@ TEST(PdDynamicsThreads, ManySmallBodiesShareThreadsBodyByBody) {
       sys.addBody(spec);
     }
     sys.finalise();
-    randomVelocities(sys.particles(), 1.0);
-    for (int s = 0; s < 5; ++s) {
-      if (staggered) sys.stepStaggered(0.5 * sys.criticalTimeStep());
-      else sys.step(0.5 * sys.criticalTimeStep());
-    }
-    return endOf(sys);
+    return moveFiveSteps(sys, staggered);
   };
   const int saved = omp_get_max_threads();
   for (const char* model : {"pmb", "lps"})
