@@ -1,8 +1,12 @@
 #pragma once
 // Helpers shared by the PD verification tests: lattice boxes in lattice units
-// (spacing h), affine displacement fields, interior particle selection.
+// (spacing h), affine displacement fields, interior particle selection,
+// scratch input files.
 #include <array>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "cosim/pd/system.hpp"
@@ -49,6 +53,14 @@ inline std::vector<std::size_t> interior(const Particles& p, const BodySpec& b, 
     if (in) out.push_back(i);
   }
   return out;
+}
+
+/// Writes text to pd_test_<name> in the temporary directory (point files,
+/// bad input) and returns its path.
+inline std::filesystem::path tempFile(const std::string& name, const std::string& text) {
+  const auto p = std::filesystem::temp_directory_path() / ("pd_test_" + name);
+  std::ofstream(p) << text;
+  return p;
 }
 
 }  // namespace cosim::pd::test

@@ -2,8 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <functional>
 #include <numbers>
 #include <sstream>
@@ -22,12 +20,6 @@ std::string errorOf(const std::function<void()>& f) {
     return e.what();
   }
   return "";
-}
-
-std::filesystem::path tempFile(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / ("pd_test_" + name);
-  std::ofstream(p) << text;
-  return p;
 }
 
 TEST(PdBodies, LatticeShapes) {
@@ -184,18 +176,18 @@ TEST(PdBodies, BadInputNamesBodyFileAndLine) {
   b.max = {8e-3, 4e-3, 4e-3};
   EXPECT_EQ(errorOf([&] { PdSystem s; s.addBody(a); s.addBody(b); s.finalise(); }), "");
 
-  const auto nanFile = tempFile("nan.txt", "# x y z V\n0 0 0 1e-9\n0.001 0 nan 1e-9\n");
+  const auto nanFile = test::tempFile("nan.txt", "# x y z V\n0 0 0 1e-9\n0.001 0 nan 1e-9\n");
   msg = errorOf([&] { readPointFile(nanFile.string()); });
   EXPECT_NE(msg.find(nanFile.string() + ":3"), std::string::npos) << msg;
   EXPECT_NE(msg.find("NaN"), std::string::npos) << msg;
-  const auto zeroFile = tempFile("zero.txt", "0 0 0 1e-9\n0.001 0 0 0\n");
+  const auto zeroFile = test::tempFile("zero.txt", "0 0 0 1e-9\n0.001 0 0 0\n");
   msg = errorOf([&] { readPointFile(zeroFile.string()); });
   EXPECT_NE(msg.find(zeroFile.string() + ":2"), std::string::npos) << msg;
   EXPECT_NE(msg.find("volume must be positive"), std::string::npos) << msg;
-  const auto badFile = tempFile("bad.txt", "0 0 zero 1e-9\n");
+  const auto badFile = test::tempFile("bad.txt", "0 0 zero 1e-9\n");
   msg = errorOf([&] { readPointFile(badFile.string()); });
   EXPECT_NE(msg.find(":1: 'zero' is not a number"), std::string::npos) << msg;
-  const auto twiceFile = tempFile("twice.txt", "0 0 0 1e-9\n0.001 0 0 1e-9\n0.002 0 0 1e-9\n0.001 0 0 1e-9\n");
+  const auto twiceFile = test::tempFile("twice.txt", "0 0 0 1e-9\n0.001 0 0 1e-9\n0.002 0 0 1e-9\n0.001 0 0 1e-9\n");
   msg = errorOf([&] { readPointFile(twiceFile.string()); });
   EXPECT_NE(msg.find(twiceFile.string() + ":4: the point repeats line 2"), std::string::npos) << msg;
   BodySpec pts = a;
@@ -267,7 +259,7 @@ TEST(PdBodies, PointCloudBodyMatchesLattice) {
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j)
       for (int k = 0; k < 6; ++k) text << (i + 0.5) * h << ' ' << (j + 0.5) * h << ' ' << (k + 0.5) * h << ' ' << h * h * h << '\n';
-  const auto file = tempFile("cloud.txt", text.str());
+  const auto file = test::tempFile("cloud.txt", text.str());
   auto spec = test::box("cloud", "lps", 6, 6, 6, h, 3.0);
   spec.shape = Shape::Points;
   spec.pointsFile = file.string();

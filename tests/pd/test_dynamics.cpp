@@ -12,7 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 
 #include "pd_test_util.hpp"
 
@@ -268,16 +268,14 @@ TEST(PdDynamicsThreads, UnequalVolumesGiveTheRowLoopsBits) {
   // volumes differ (+-10 %) takes the general pair loops, which must give
   // the row loops' bits too.
   const double h = 1e-3;
-  const auto file = std::filesystem::temp_directory_path() / "pd_test_unequal_volumes.txt";
-  {
-    std::ofstream out(file);
-    out.precision(17);
-    for (int i = 0; i < 18; ++i)
-      for (int j = 0; j < 18; ++j)
-        for (int k = 0; k < 18; ++k)
-          out << (i + 0.5) * h << ' ' << (j + 0.5) * h << ' ' << (k + 0.5) * h << ' '
-              << h * h * h * (1.0 + 0.1 * std::sin(1.7 * i + 2.3 * j + 0.9 * k)) << '\n';
-  }
+  std::ostringstream text;
+  text.precision(17);
+  for (int i = 0; i < 18; ++i)
+    for (int j = 0; j < 18; ++j)
+      for (int k = 0; k < 18; ++k)
+        text << (i + 0.5) * h << ' ' << (j + 0.5) * h << ' ' << (k + 0.5) * h << ' '
+             << h * h * h * (1.0 + 0.1 * std::sin(1.7 * i + 2.3 * j + 0.9 * k)) << '\n';
+  const auto file = test::tempFile("unequal_volumes.txt", text.str());
   auto run = [&file, h](int threads, bool staggered) {
     omp_set_num_threads(threads);
     auto spec = test::box("cloud", "lps", 18, 18, 18, h, 3.0);
