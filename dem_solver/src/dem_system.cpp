@@ -453,10 +453,12 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
           const bool contact = norm2(d) < rsum * rsum;
           batch.offer(contact, static_cast<std::uint32_t>(i), j, k, static_cast<std::uint32_t>(rowMaterial + material[j]),
                       d, shear[k]);
-          // A contact lost ends its history. One test on both flags, not a
-          // branch on `contact` (about half the listed pairs touch, so such a
-          // branch mispredicts; losing a contact is rare).
-          if ((touching[k] != 0) & !contact) [[unlikely]] {
+          // A contact lost ends its history. One comparison of the two flags
+          // (touching 1, contact 0), not a branch on either: about half the
+          // listed pairs touch, so a branch on one of them mispredicts, while
+          // losing a contact is rare. (`touching[k] != 0 & !contact` let GCC
+          // branch on touching[k] first.)
+          if (touching[k] > static_cast<std::uint8_t>(contact)) [[unlikely]] {
             touching[k] = 0;
             shear[k] = {};
             pf[k] = {};

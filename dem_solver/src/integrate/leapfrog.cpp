@@ -9,15 +9,7 @@ namespace {
 
 class Leapfrog final : public Integrator {
  public:
-  void beforeForces(Particles& p, double dt) const override {
-    const std::size_t n = p.size();
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
-    for (std::size_t i = 0; i < n; ++i) {
-      if (p.driven[i]) continue;
-      kick(p, i, dt);
-      drift(p, i, dt);
-    }
-  }
+  void beforeForces(Particles& p, double dt) const override { kickAndDrift(p, dt, dt); }
   void afterForces(Particles&, double) const override {}
 };
 

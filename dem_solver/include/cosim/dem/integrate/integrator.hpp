@@ -39,13 +39,11 @@ inline void kick(Particles& p, std::size_t i, double dtKick) {
   kick(p.weight[i], p.invMass[i], p.invInertia[i], p.f[i], p.torque[i], dtKick, p.v[i], p.omega[i]);
 }
 
-/// Drift of particle i over dt: position moves with v, orientation turns by omega dt.
-inline void drift(Particles& p, std::size_t i, double dt) {
-  p.x[i] += dt * p.v[i];
-  // Most spheres of a dilute flow have never turned (no contact yet): their
-  // orientations are neither read nor written (rotated() would return q).
-  const Vec3 phi = dt * p.omega[i];
-  if (norm2(phi) != 0.0) p.q[i] = rotated(p.q[i], phi);
-}
+/// The opening pass of both integrators: every particle not driven is kicked
+/// over dtKick with its stored force and torque, then drifts over dt. The
+/// arrays are read through pointers taken once: through the vectors, every
+/// store could alias their members as far as the compiler knows, and it
+/// reloaded their data pointers for each particle.
+void kickAndDrift(Particles& p, double dtKick, double dt);
 
 }  // namespace cosim::dem
