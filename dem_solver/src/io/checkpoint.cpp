@@ -308,6 +308,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
   }
   checkRestored(s, path);
+  s.neighbors.indexPairs(s.particles.size());  // pairRow is not stored
   s.markDrivenEvaluated();  // written after a step: the forces are those of these positions
 }
 

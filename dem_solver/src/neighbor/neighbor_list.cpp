@@ -348,14 +348,21 @@ void NeighborList::buildRows(const Particles& p, Candidates&& allCandidates, boo
   shear = std::move(hist);
   touching = std::move(touch);
   image = std::move(img);
+  indexPairs(n);
+}
 
+void NeighborList::indexPairs(std::size_t n) {
   revStart.assign(n + 1, 0);
   for (std::uint32_t j : partner) ++revStart[j + 1];
   for (std::size_t i = 0; i < n; ++i) revStart[i + 1] += revStart[i];
   revPair.resize(partner.size());
+  pairRow.resize(partner.size());
   std::vector<std::uint32_t> fill(revStart.begin(), revStart.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t k = rowStart[i]; k < rowStart[i + 1]; ++k) revPair[fill[partner[k]]++] = k;
+    for (std::uint32_t k = rowStart[i]; k < rowStart[i + 1]; ++k) {
+      revPair[fill[partner[k]]++] = k;
+      pairRow[k] = static_cast<std::uint32_t>(i);
+    }
 }
 
 }  // namespace cosim::dem

@@ -45,6 +45,10 @@ class NeighborList {
   std::vector<std::uint8_t> touching;   // 1 while in contact
   std::vector<std::uint32_t> revStart;  // n + 1
   std::vector<std::uint32_t> revPair;   // pair indices where the particle is j
+  std::vector<std::uint32_t> pairRow;   // i of each pair: the pair loop runs over pairs, not rows in rows
+  /// Derives the transposed index and pairRow from rowStart and partner (done
+  /// by build(); a restored checkpoint calls it).
+  void indexPairs(std::size_t n);
   std::vector<Vec3> xRef;               // positions at the last build (fractional when periodic)
   std::vector<std::array<std::int8_t, 3>> image;  // partner image per pair (periodic only)
   Mat3 hRef{};                          // cell at the last build (periodic only)
