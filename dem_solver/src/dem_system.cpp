@@ -407,6 +407,8 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   const Vec3* x = p.x.data();
   const double* radius = p.radius.data();
   const auto* material = p.material.data();
+  if (neighbors.pairRow.size() != neighbors.pairs())
+    throw std::logic_error("DemSystem: neighbour list without its pair rows (NeighborList::indexPairs not called)");
   const std::uint32_t *rowStart = neighbors.rowStart.data(), *partner = neighbors.partner.data(),
                       *pairRow = neighbors.pairRow.data();
   const auto* image = neighbors.image.data();

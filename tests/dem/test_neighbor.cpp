@@ -62,6 +62,10 @@ TEST(DemNeighbor, EqualsBruteForcePolydisperse) {
         ++rev;
       }
     EXPECT_EQ(rev, a.size());
+    // pairRow names the row of every pair (the pair loop runs over pairs).
+    ASSERT_EQ(nl.pairRow.size(), nl.pairs());
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (std::uint32_t k = nl.rowStart[i]; k < nl.rowStart[i + 1]; ++k) EXPECT_EQ(nl.pairRow[k], i);
   }
 }
 
