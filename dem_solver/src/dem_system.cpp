@@ -26,17 +26,15 @@ struct ContactBatch {
   std::size_t count = 0;
   Lane<std::uint32_t> pair, row, partner, material;  // material: index into the pair table
   Lane<double> dx, dy, dz;                           // x_i - x_j (with the image shift)
-  Lane<double> sx, sy, sz;                           // history in, advanced history out
+  Lane<double> sx, sy, sz;                           // advanced history (read from the pair's own)
   // Results: force on i, the torque terms a_i n x f and -a_j n x f, energy lost.
   Lane<double> fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz, lost;
 
   /// Writes pair k into the next lane; it stays there only if `keep` (no
   /// branch: about half the listed pairs touch, a branch on it mispredicts).
-  void offer(bool keep, std::uint32_t i, std::uint32_t j, std::uint32_t k, std::uint32_t pairMaterial, const Vec3& d,
-             const Vec3& shear) {
+  void offer(bool keep, std::uint32_t i, std::uint32_t j, std::uint32_t k, std::uint32_t pairMaterial, const Vec3& d) {
     pair[count] = k, row[count] = i, partner[count] = j, material[count] = pairMaterial;
     dx[count] = d.x, dy[count] = d.y, dz[count] = d.z;
-    sx[count] = shear.x, sy[count] = shear.y, sz[count] = shear.z;
     count += keep ? 1 : 0;
   }
 };
@@ -50,9 +48,12 @@ struct ContactBatch {
 #define COSIM_DEM_SIMD_CLONES
 #endif
 
-// The contact forces of a batch (each lane independent of the others).
+// The contact forces of a batch (each lane independent of the others). The
+// history is read through the pair index: copying it into the batch cost
+// every listed pair, in contact or not, three loads and three stores.
 template <bool Periodic, class Normal, class Tangential>
-COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p, const PairMaterial* pairs,
+COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p, const Vec3* history,
+                                            const PairMaterial* pairs,
                                             const Normal& normalLaw, const Tangential& tangentialLaw, const Mat3& gradV,
                                             double dt) {
   const std::size_t count = b.count;
@@ -77,7 +78,7 @@ COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p,
     const double inv = 1.0 / (rsum * msum);
     const double rEff = ri * rj * msum * inv;
     const double mEff = mi * mj * rsum * inv;
-    Vec3 shear{b.sx[e], b.sy[e], b.sz[e]};
+    Vec3 shear = history[b.pair[e]];
     double lost = 0.0;
     Vec3 f = composedForce(normalLaw, tangentialLaw, nrm, overlap, vrel, rEff, mEff, pairs[b.material[e]], dt, shear,
                            lost);
@@ -423,8 +424,8 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
     ContactBatch batch;
     // Evaluates the batch's contacts and hands each result to its pair and row.
     const auto flush = [&] {
-      evaluateContacts<Periodic>(batch, p, materials.pairs().data(), normalLaw, tangentialLaw, box.velocityGradient,
-                                 dt);
+      evaluateContacts<Periodic>(batch, p, shear, materials.pairs().data(), normalLaw, tangentialLaw,
+                                 box.velocityGradient, dt);
       for (std::size_t e = 0; e < batch.count; ++e) {
         const std::uint32_t k = batch.pair[e], i = batch.row[e];
         const Vec3 f{batch.fx[e], batch.fy[e], batch.fz[e]};
@@ -455,8 +456,7 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
         if constexpr (Periodic) d -= box.shift(image[k]);
         const double rsum = radius[i] + radius[j];
         const bool contact = norm2(d) < rsum * rsum;
-        batch.offer(contact, i, j, k, static_cast<std::uint32_t>(material[i] * materialCount + material[j]), d,
-                    shear[k]);
+        batch.offer(contact, i, j, k, static_cast<std::uint32_t>(material[i] * materialCount + material[j]), d);
         // A contact lost ends its history. One comparison of the two flags
         // (touching 1, contact 0), not a branch on either: about half the
         // listed pairs touch, so a branch on one of them mispredicts, while
