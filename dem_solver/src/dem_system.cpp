@@ -39,16 +39,8 @@ struct ContactBatch {
   }
 };
 
-// The batch loop is compiled for AVX-512 and AVX2 besides the baseline and
-// the widest the CPU has is picked at load time; the core is built without
-// FMA contraction, so every clone gives the baseline's results bit for bit.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define COSIM_DEM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define COSIM_DEM_SIMD_CLONES
-#endif
-
-// The contact forces of a batch (each lane independent of the others). The
+// The contact forces of a batch (each lane independent of the others), in a
+// loop compiled for the widest vectors the CPU has (COSIM_DEM_SIMD_CLONES). The
 // history is read through the pair index: copying it into the batch cost
 // every listed pair, in contact or not, three loads and three stores.
 template <bool Periodic, class Normal, class Tangential>

@@ -1,9 +1,13 @@
 // Leapfrog integration and servo / velocity-driven plane walls.
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
+#include "cosim/dem/integrate/integrator.hpp"
 #include "cosim/dem/packing/packing.hpp"
 #include "dem_test_util.hpp"
 
@@ -41,6 +45,59 @@ TEST(DemIntegrators, LeapfrogHertzCollision) {
     EXPECT_GT(end - start, tc);  // damping lengthens the contact a little
     EXPECT_LT(end - start, 1.1 * tc);
   }
+}
+
+// The opening pass turns its spheres in a vectorised batch; each orientation
+// must be the bits rotated() gives, for small turns, large ones (exact sine and
+// cosine), none (omega = 0), driven spheres (not turned) and weighted ones,
+// on 1 and 2 threads, and over more spheres than one batch holds.
+TEST(DemIntegrators, OpeningPassTurnsEverySphereAsRotated) {
+  const int before = omp_get_max_threads();
+  for (const int threads : {1, 2}) {
+    Particles p;
+    const std::size_t n = 3000;  // above kParallelMin, many batches
+    std::uint64_t state = 12345;
+    const auto uniform = [&] {  // in [-1, 1)
+      state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<double>(state >> 11) / 4503599627370496.0 - 1.0;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+      p.add({uniform(), uniform(), uniform()}, 0.01 * (1.5 + uniform()), 2500.0);
+      // Orientation: a random unit quaternion; angular velocities from 0 to
+      // large turns per step (|omega dt| up to about 0.1, kSmallTurn2 = 1e-6).
+      Quat q{uniform(), uniform(), uniform(), uniform()};
+      const double len = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+      p.q[i] = {q.w / len, q.x / len, q.y / len, q.z / len};
+      // Not quite unit (as set from outside) where unturned: a turn would renormalise it.
+      if (i % 7 == 0) p.q[i] = {p.q[i].w * 1.001, p.q[i].x * 1.001, p.q[i].y * 1.001, p.q[i].z * 1.001};
+      const double scale = i % 7 == 0 ? 0.0 : std::pow(10.0, 3.0 * uniform() + 1.0);
+      p.omega[i] = Vec3{uniform(), uniform(), uniform()} * scale;
+      p.torque[i] = scale > 0.0 ? Vec3{uniform(), uniform(), uniform()} * 1e-6 : Vec3{};
+      p.f[i] = Vec3{uniform(), uniform(), uniform()} * 1e-3;
+      if (i % 11 == 0) p.driven[i] = 1;
+      if (i % 13 == 0) p.weight[i] = 0.5;
+    }
+    const double dt = 1e-5, dtKick = 0.5e-5;
+    Particles expected = p;
+    std::size_t large = 0, small = 0, unturned = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (expected.driven[i]) continue;
+      kick(expected, i, dtKick);
+      expected.x[i] += dt * expected.v[i];
+      const Vec3 phi = dt * expected.omega[i];
+      expected.q[i] = rotated(expected.q[i], phi);
+      ++(norm2(phi) == 0.0 ? unturned : norm2(phi) < kSmallTurn2 ? small : large);
+    }
+    ASSERT_GT(large, 100u);
+    ASSERT_GT(unturned, 100u);
+    ASSERT_GT(small, 100u);
+    omp_set_num_threads(threads);
+    kickAndDrift(p, dtKick, dt);
+    EXPECT_EQ(std::memcmp(p.q.data(), expected.q.data(), n * sizeof(Quat)), 0) << threads << " threads";
+    EXPECT_EQ(std::memcmp(p.x.data(), expected.x.data(), n * sizeof(Vec3)), 0);
+    EXPECT_EQ(std::memcmp(p.omega.data(), expected.omega.data(), n * sizeof(Vec3)), 0);
+  }
+  omp_set_num_threads(before);
 }
 
 TEST(DemWalls, ServoWallReachesTargetStress) {

@@ -50,22 +50,20 @@ constexpr Quat operator*(const Quat& a, const Quat& b) {
           a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
 }
 
-/// Rotates q by the rotation vector phi (angle |phi| about phi/|phi|), in the
-/// space frame: q <- exp(phi/2) * q, renormalised against round-off drift.
-inline Quat rotated(const Quat& q, const Vec3& phi) {
-  const double a2 = norm2(phi);
-  if (a2 == 0.0) return q;
-  double c, s;
-  if (a2 < 1e-6) {
-    // Small angle (every DEM step): Taylor series of cos(a/2) and sin(a/2)/a,
-    // truncation below 1e-22, instead of sincos.
-    c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0;
-    s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0;
-  } else {
-    const double angle = std::sqrt(a2);
-    c = std::cos(0.5 * angle);
-    s = std::sin(0.5 * angle) / angle;
-  }
+/// Below this |phi|^2 a turn uses the Taylor series (smallTurn): every DEM step.
+constexpr double kSmallTurn2 = 1e-6;
+
+/// cos(a/2) and sin(a/2)/a for a^2 = a2 < kSmallTurn2: Taylor series,
+/// truncation below 1e-22, instead of sincos.
+inline void smallTurn(double a2, double& c, double& s) {
+  c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0;
+  s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0;
+}
+
+/// q turned by phi given c = cos(a/2) and s = sin(a/2)/a, a = |phi|:
+/// exp(phi/2) * q, renormalised against round-off drift. A select, not a
+/// branch, so that a loop over spheres vectorises.
+inline Quat turned(const Quat& q, const Vec3& phi, double c, double s) {
   const Quat r{c, phi.x * s, phi.y * s, phi.z * s};
   Quat out = r * q;
   // |out|^2 = 1 + e with |e| ~ 1e-16: one Newton step from 1, 1/sqrt(1 + e) = 1 - e/2 + O(e^2),
@@ -74,6 +72,22 @@ inline Quat rotated(const Quat& q, const Vec3& phi) {
   const double inv = std::fabs(n2 - 1.0) < 1e-8 ? 1.5 - 0.5 * n2 : 1.0 / std::sqrt(n2);
   out.w *= inv; out.x *= inv; out.y *= inv; out.z *= inv;
   return out;
+}
+
+/// Rotates q by the rotation vector phi (angle |phi| about phi/|phi|), in the
+/// space frame: q <- exp(phi/2) * q.
+inline Quat rotated(const Quat& q, const Vec3& phi) {
+  const double a2 = norm2(phi);
+  if (a2 == 0.0) return q;
+  double c, s;
+  if (a2 < kSmallTurn2) {
+    smallTurn(a2, c, s);
+  } else {
+    const double angle = std::sqrt(a2);
+    c = std::cos(0.5 * angle);
+    s = std::sin(0.5 * angle) / angle;
+  }
+  return turned(q, phi, c, s);
 }
 
 }  // namespace cosim::dem
