@@ -6,8 +6,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
@@ -115,9 +118,51 @@ std::vector<pid_t> processesMentioning(const std::string& needle) {
   return pids;
 }
 
+namespace {
+
+// The directories freshDirectory() made during the running test: removed when
+// the test passes, kept (and named) when it fails. Made outside a test (a
+// suite's shared set-up), they are the caller's to remove. Without this,
+// every test run left its runs in /tmp (over 400 MB after some thirty sessions).
+class ScratchCleaner : public ::testing::EmptyTestEventListener {
+ public:
+  static ScratchCleaner& instance() {
+    // Owned by gtest's listener list once appended.
+    static ScratchCleaner* cleaner = [] {
+      auto* c = new ScratchCleaner;
+      ::testing::UnitTest::GetInstance()->listeners().Append(c);
+      return c;
+    }();
+    return *cleaner;
+  }
+  void made(const std::filesystem::path& dir) {
+    if (inTest_) dirs_.push_back(dir);
+  }
+  void OnTestStart(const ::testing::TestInfo&) override { inTest_ = true; }
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    inTest_ = false;
+    for (const auto& dir : dirs_) {
+      std::error_code ec;
+      if (info.result()->Passed()) std::filesystem::remove_all(dir, ec);
+      else if (std::filesystem::exists(dir, ec)) std::printf("kept for inspection: %s\n", dir.c_str());
+    }
+    dirs_.clear();
+  }
+
+ private:
+  bool inTest_ = false;
+  std::vector<std::filesystem::path> dirs_;
+};
+
+// Listening from the start, so that a directory made in the first test is seen.
+const bool cleanerListening = (ScratchCleaner::instance(), true);
+
+}  // namespace
+
 std::filesystem::path freshDirectory(const std::string& prefix) {
   std::string templ = (std::filesystem::temp_directory_path() / (prefix + "-XXXXXX")).string();
   if (::mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  ScratchCleaner::instance().made(templ);
   return templ;
 }
 

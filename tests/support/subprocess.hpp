@@ -50,7 +50,9 @@ Finished run(const std::vector<std::string>& argv, double timeoutS);
 /// Pids of live processes whose command line contains needle (zombies excluded).
 std::vector<pid_t> processesMentioning(const std::string& needle);
 
-/// A fresh, short temporary directory (removed by the caller when wanted).
+/// A fresh, short temporary directory. Made during a test, it is removed when
+/// the test passes and kept (its path printed) when it fails; made outside one
+/// (a suite's set-up), it is the caller's to remove.
 std::filesystem::path freshDirectory(const std::string& prefix);
 
 /// Copies a finished run's directory to `cut` and removes the newer of the
