@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "cosim/dem/contact/builtin_laws.hpp"
+#include "cosim/dem/lane_batch.hpp"
 #include "cosim/dem/parallel.hpp"
 
 namespace cosim::dem {
@@ -19,23 +20,19 @@ namespace {
 // them in one loop without branches, which the compiler vectorises (the
 // built-in Hertz-Mindlin law is written with selects for that), then hands the
 // results back in the order found, so sums are as in a row loop.
-struct ContactBatch {
-  static constexpr std::size_t kSize = 64;
-  template <class T>
-  using Lane = std::array<T, kSize>;
-  std::size_t count = 0;
+struct ContactBatch : LaneBatch<64> {
   Lane<std::uint32_t> pair, row, partner, material;  // material: index into the pair table
   Lane<double> dx, dy, dz;                           // x_i - x_j (with the image shift)
   Lane<double> sx, sy, sz;                           // advanced history (read from the pair's own)
   // Results: force on i, the torque terms a_i n x f and -a_j n x f, energy lost.
   Lane<double> fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz, lost;
 
-  /// Writes pair k into the next lane; it stays there only if `keep` (no
-  /// branch: about half the listed pairs touch, a branch on it mispredicts).
+  /// Writes pair k into the next lane; it stays there only if `keep` (about
+  /// half the listed pairs touch).
   void offer(bool keep, std::uint32_t i, std::uint32_t j, std::uint32_t k, std::uint32_t pairMaterial, const Vec3& d) {
     pair[count] = k, row[count] = i, partner[count] = j, material[count] = pairMaterial;
     dx[count] = d.x, dy[count] = d.y, dz[count] = d.z;
-    count += keep ? 1 : 0;
+    keepIf(keep);
   }
 };
 
@@ -459,7 +456,7 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
           shear[k] = {};
           pf[k] = {};
         }
-        if (batch.count == ContactBatch::kSize) flush();
+        if (batch.full()) flush();
       }
       flush();
       chunkLost_[c] = local;

@@ -1,6 +1,5 @@
-#include <array>
-
 #include "cosim/dem/integrate/integrator.hpp"
+#include "cosim/dem/lane_batch.hpp"
 #include "cosim/dem/parallel.hpp"
 
 namespace cosim::dem {
@@ -13,11 +12,7 @@ namespace {
 // operations and three divisions per sphere), and in a packing every sphere
 // turns every step. Lanes hold the sphere's index, its rotation vector, and
 // the turned orientation.
-struct TurnBatch {
-  static constexpr std::size_t kSize = 64;
-  template <class T>
-  using Lane = std::array<T, kSize>;
-  std::size_t count = 0;
+struct TurnBatch : LaneBatch<64> {
   Lane<std::uint32_t> sphere;
   Lane<double> px, py, pz, qw, qx, qy, qz;
 
@@ -25,7 +20,7 @@ struct TurnBatch {
   void offer(bool keep, std::size_t i, const Vec3& phi) {
     sphere[count] = static_cast<std::uint32_t>(i);
     px[count] = phi.x, py[count] = phi.y, pz[count] = phi.z;
-    count += keep ? 1 : 0;
+    keepIf(keep);
   }
 };
 
@@ -77,7 +72,7 @@ void kickAndDrift(Particles& p, double dtKick, double dt) {
       // orientations are neither read nor written (rotated() would return q).
       const Vec3 phi = dt * omega[i];
       batch.offer(norm2(phi) != 0.0, i, phi);
-      if (batch.count == TurnBatch::kSize) turnAll(batch, q);
+      if (batch.full()) turnAll(batch, q);
     }
     turnAll(batch, q);
   }
