@@ -16,7 +16,7 @@ namespace cosim::dem {
 namespace {
 
 // Contacts of one thread waiting for evaluation, as structure of arrays: the
-// pair loop finds contacts row by row (branchy), then evaluates a batch of
+// pair loop finds contacts pair by pair (branchy), then evaluates a batch of
 // them in one loop without branches, which the compiler vectorises (the
 // built-in Hertz-Mindlin law is written with selects for that), then hands the
 // results back in the order found, so sums are as in a row loop.

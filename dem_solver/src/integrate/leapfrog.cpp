@@ -1,7 +1,6 @@
 // Leapfrog: velocities live at half steps, v(t+dt/2) = v(t-dt/2) + dt f(t)/m,
 // x(t+dt) = x(t) + dt v(t+dt/2). The forces of step t are those of the
 // previous evaluation, so the whole update happens before the new forces.
-#include "cosim/dem/parallel.hpp"
 #include "cosim/dem/integrate/integrator.hpp"
 
 namespace cosim::dem {

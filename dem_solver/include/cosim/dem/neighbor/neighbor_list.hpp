@@ -45,7 +45,7 @@ class NeighborList {
   std::vector<std::uint8_t> touching;   // 1 while in contact
   std::vector<std::uint32_t> revStart;  // n + 1
   std::vector<std::uint32_t> revPair;   // pair indices where the particle is j
-  std::vector<std::uint32_t> pairRow;   // i of each pair: the pair loop runs over pairs, not rows in rows
+  std::vector<std::uint32_t> pairRow;   // row i of each pair, so the pair loop can run over pairs
   /// Derives the transposed index and pairRow from rowStart and partner (done
   /// by build(); a restored checkpoint calls it).
   void indexPairs(std::size_t n);
