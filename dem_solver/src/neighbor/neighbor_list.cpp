@@ -306,13 +306,30 @@ void NeighborList::buildRows(const Particles& p, Candidates&& allCandidates, boo
     });
   };
 
-  // Two passes (count, then fill) keep the build parallel and the order fixed.
+  // One search per particle: each block of rows collects its partners on its
+  // own, and the blocks are copied into place once their sizes are known (a
+  // count pass and a fill pass searched every particle's cells twice).
+  constexpr std::size_t kBlock = 256;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  blocks_.resize(blocks);
   std::vector<std::uint32_t> start(n + 1, 0);
-#pragma omp parallel for schedule(dynamic, 256) if (n > kParallelMin)
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t count = 0;
-    candidates(i, [&](std::uint32_t, const std::array<std::int8_t, 3>&) { ++count; });
-    start[i + 1] = count;
+#pragma omp parallel for schedule(dynamic, 1) if (n > kParallelMin)
+  for (std::size_t b = 0; b < blocks; ++b) {
+    RowBlock& out = blocks_[b];
+    out.partner.clear();
+    out.image.clear();
+    static thread_local std::vector<std::pair<std::uint32_t, std::array<std::int8_t, 3>>> row;
+    for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+      row.clear();
+      candidates(i, [&](std::uint32_t j, const std::array<std::int8_t, 3>& im) { row.emplace_back(j, im); });
+      // Rows are short: sort them (deterministic order independent of cell layout).
+      std::sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+      for (const auto& [j, im] : row) {
+        out.partner.push_back(j);
+        if (periodic) out.image.push_back(im);
+      }
+      start[i + 1] = static_cast<std::uint32_t>(row.size());
+    }
   }
   for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
   std::vector<std::uint32_t> part(start[n]);
@@ -320,26 +337,22 @@ void NeighborList::buildRows(const Particles& p, Candidates&& allCandidates, boo
   std::vector<std::uint8_t> touch(start[n], 0);
   std::vector<std::array<std::int8_t, 3>> img(periodic ? start[n] : 0);
   const bool carry = rowStart.size() == n + 1;
-#pragma omp parallel for schedule(dynamic, 256) if (n > kParallelMin)
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t k = start[i];
-    static thread_local std::vector<std::pair<std::uint32_t, std::array<std::int8_t, 3>>> row;
-    row.clear();
-    candidates(i, [&](std::uint32_t j, const std::array<std::int8_t, 3>& im) { row.emplace_back(j, im); });
-    // Rows are short: sort them (deterministic order independent of cell
-    // layout) and carry each pair's history over from the old row.
-    std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& [j, im] : row) {
-      if (periodic) img[k] = im;
-      part[k++] = j;
-    }
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const RowBlock& in = blocks_[b];
+    const std::size_t first = b * kBlock, last = std::min(n, (b + 1) * kBlock);
+    std::copy(in.partner.begin(), in.partner.end(), part.begin() + start[first]);
+    std::copy(in.image.begin(), in.image.end(), img.begin() + (periodic ? start[first] : 0));
     if (!carry) continue;
-    std::uint32_t o = rowStart[i];
-    for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
-      while (o < rowStart[i + 1] && partner[o] < part[m]) ++o;
-      if (o < rowStart[i + 1] && partner[o] == part[m]) {
-        hist[m] = shear[o];
-        touch[m] = touching[o];
+    // Each pair's history carried over from the old row.
+    for (std::size_t i = first; i < last; ++i) {
+      std::uint32_t o = rowStart[i];
+      for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
+        while (o < rowStart[i + 1] && partner[o] < part[m]) ++o;
+        if (o < rowStart[i + 1] && partner[o] == part[m]) {
+          hist[m] = shear[o];
+          touch[m] = touching[o];
+        }
       }
     }
   }

@@ -90,6 +90,13 @@ class NeighborList {
   void buildRows(const Particles& p, Candidates&& candidates, bool periodic);
   void binPeriodic(const Particles& p, const PeriodicCell& cell, double size);
   std::vector<Vec3> frac_;  // fractional coordinates at build (periodic)
+  /// The rows of one block of particles as a build finds them (kept between
+  /// builds for their capacity).
+  struct RowBlock {
+    std::vector<std::uint32_t> partner;
+    std::vector<std::array<std::int8_t, 3>> image;
+  };
+  std::vector<RowBlock> blocks_;
   CellGrid open_[2];        // open lists: small radii, and the largest tenth where split (else empty)
   CellGrid periodic_;       // periodic lists: one grid in fractional coordinates
   std::vector<std::uint32_t> cellOf_;  // each particle's cell in periodic_
