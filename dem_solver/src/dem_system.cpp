@@ -377,6 +377,100 @@ std::size_t DemSystem::chunkOfPairShare(std::size_t t, std::size_t nt) const {
   return lo;
 }
 
+namespace {
+
+// What the pair loop reads and writes, as plain pointers taken once: `touching`
+// is a byte array, and a store through it may alias anything as far as the
+// compiler knows, so it would reload every vector's data pointer after each one.
+struct PairLoopArrays {
+  const Particles* p;
+  const Vec3* x;
+  const double* radius;
+  const std::uint16_t* material;
+  std::size_t materialCount;
+  const PairMaterial* pairs;
+  const std::uint32_t *rowStart, *partner, *pairRow;
+  const std::array<std::int8_t, 3>* image;
+  std::uint8_t* touching;
+  Vec3* shear;
+  PairForce* pf;
+  Vec3 *sumF, *sumT;
+  double* chunkLost;
+  const PeriodicCell* box;
+  std::size_t n, rowsPerChunk;
+};
+
+// One thread's run of chunks [cBegin, cEnd) of the pair loop. A function of
+// its own so that it is compiled for the widest registers the CPU has too
+// (COSIM_DEM_SIMD_CLONES; the outlined OpenMP body would not inherit it): the
+// loop keeps a dozen pointers and the batch's fill live, and the baseline's
+// 16 registers spilled them.
+template <bool Periodic, class Normal, class Tangential>
+COSIM_DEM_SIMD_CLONES void pairChunks(const PairLoopArrays& a, std::size_t cBegin, std::size_t cEnd,
+                                      const Normal& normalLaw, const Tangential& tangentialLaw, double dt) {
+  const Vec3* x = a.x;
+  const double* radius = a.radius;
+  const std::uint16_t* material = a.material;
+  const std::size_t materialCount = a.materialCount;
+  const std::uint32_t *rowStart = a.rowStart, *partner = a.partner, *pairRow = a.pairRow;
+  std::uint8_t* touching = a.touching;
+  Vec3* shear = a.shear;
+  PairForce* pf = a.pf;
+  Vec3 *sumF = a.sumF, *sumT = a.sumT;
+  const PeriodicCell& box = *a.box;
+  double local = 0.0;
+  ContactBatch batch;
+  // Evaluates the batch's contacts and hands each result to its pair and row.
+  const auto flush = [&] {
+    evaluateContacts<Periodic>(batch, *a.p, shear, a.pairs, normalLaw, tangentialLaw, box.velocityGradient, dt);
+    for (std::size_t e = 0; e < batch.count; ++e) {
+      const std::uint32_t k = batch.pair[e], i = batch.row[e];
+      const Vec3 f{batch.fx[e], batch.fy[e], batch.fz[e]};
+      shear[k] = {batch.sx[e], batch.sy[e], batch.sz[e]};
+      touching[k] = 1;
+      pf[k] = {f, {batch.tjx[e], batch.tjy[e], batch.tjz[e]}};
+      sumF[i] += f;
+      sumT[i] -= Vec3{batch.tix[e], batch.tiy[e], batch.tiz[e]};
+      local += batch.lost[e];
+    }
+    batch.count = 0;
+  };
+  for (std::size_t c = cBegin; c < cEnd; ++c) {
+    local = 0.0;
+    // Row sums start at zero; rows without pairs (most in a dilute flow) are
+    // neither written here nor read by the gather.
+    const std::size_t rowBegin = c * a.rowsPerChunk, rowEnd = std::min(a.n, (c + 1) * a.rowsPerChunk);
+    for (std::size_t i = rowBegin; i < rowEnd; ++i)
+      if (rowStart[i] != rowStart[i + 1]) sumF[i] = sumT[i] = {};
+    // One loop over the chunk's pairs, not a loop over each row's: the exit
+    // of a row's short loop (3-4 pairs in a dense packing, a varying count)
+    // mispredicted once per row.
+    for (std::uint32_t k = rowStart[rowBegin]; k < rowStart[rowEnd]; ++k) {
+      const std::uint32_t i = pairRow[k], j = partner[k];
+      Vec3 d = x[i] - x[j];
+      if constexpr (Periodic) d -= box.shift(a.image[k]);
+      const double rsum = radius[i] + radius[j];
+      const bool contact = norm2(d) < rsum * rsum;
+      batch.offer(contact, i, j, k, static_cast<std::uint32_t>(material[i] * materialCount + material[j]), d);
+      // A contact lost ends its history. One comparison of the two flags
+      // (touching 1, contact 0), not a branch on either: about half the
+      // listed pairs touch, so a branch on one of them mispredicts, while
+      // losing a contact is rare. (`touching[k] != 0 & !contact` let GCC
+      // branch on touching[k] first.)
+      if (touching[k] > static_cast<std::uint8_t>(contact)) [[unlikely]] {
+        touching[k] = 0;
+        shear[k] = {};
+        pf[k] = {};
+      }
+      if (batch.full()) flush();
+    }
+    flush();
+    a.chunkLost[c] = local;
+  }
+}
+
+}  // namespace
+
 template <bool Periodic, class Normal, class Tangential>
 void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLaw, double dt) {
   const Particles& p = particles;
@@ -390,77 +484,31 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   // is summed per chunk and the chunks in order: it does not depend on the
   // thread count.
   chunkLost_.assign(chunkCount(), 0.0);
-  const PeriodicCell& box = cell;
-  // The arrays as plain pointers, taken once: `touching` is a byte array, and
-  // a store through it may alias anything as far as the compiler knows, so it
-  // would reload every vector's data pointer after each one.
-  const Vec3* x = p.x.data();
-  const double* radius = p.radius.data();
-  const auto* material = p.material.data();
   if (neighbors.pairRow.size() != neighbors.pairs())
     throw std::logic_error("DemSystem: neighbour list without its pair rows (NeighborList::indexPairs not called)");
-  const std::uint32_t *rowStart = neighbors.rowStart.data(), *partner = neighbors.partner.data(),
-                      *pairRow = neighbors.pairRow.data();
-  const auto* image = neighbors.image.data();
-  std::uint8_t* touching = neighbors.touching.data();
-  Vec3* shear = neighbors.shear.data();
-  PairForce* pf = pairForce.data();
-  Vec3 *sumF = pairSumF_.data(), *sumT = pairSumT_.data();
-  const std::size_t materialCount = materials.size();
+  const PairLoopArrays arrays{&p,
+                              p.x.data(),
+                              p.radius.data(),
+                              p.material.data(),
+                              materials.size(),
+                              materials.pairs().data(),
+                              neighbors.rowStart.data(),
+                              neighbors.partner.data(),
+                              neighbors.pairRow.data(),
+                              neighbors.image.data(),
+                              neighbors.touching.data(),
+                              neighbors.shear.data(),
+                              pairForce.data(),
+                              pairSumF_.data(),
+                              pairSumT_.data(),
+                              chunkLost_.data(),
+                              &cell,
+                              n,
+                              kRowsPerChunk};
 #pragma omp parallel if (n > kParallelMin)
   {
-    double local = 0.0;
-    ContactBatch batch;
-    // Evaluates the batch's contacts and hands each result to its pair and row.
-    const auto flush = [&] {
-      evaluateContacts<Periodic>(batch, p, shear, materials.pairs().data(), normalLaw, tangentialLaw,
-                                 box.velocityGradient, dt);
-      for (std::size_t e = 0; e < batch.count; ++e) {
-        const std::uint32_t k = batch.pair[e], i = batch.row[e];
-        const Vec3 f{batch.fx[e], batch.fy[e], batch.fz[e]};
-        shear[k] = {batch.sx[e], batch.sy[e], batch.sz[e]};
-        touching[k] = 1;
-        pf[k] = {f, {batch.tjx[e], batch.tjy[e], batch.tjz[e]}};
-        sumF[i] += f;
-        sumT[i] -= Vec3{batch.tix[e], batch.tiy[e], batch.tiz[e]};
-        local += batch.lost[e];
-      }
-      batch.count = 0;
-    };
     const std::size_t t = static_cast<std::size_t>(threadIndex()), nt = static_cast<std::size_t>(teamSize());
-    const std::size_t cBegin = chunkOfPairShare(t, nt), cEnd = chunkOfPairShare(t + 1, nt);
-    for (std::size_t c = cBegin; c < cEnd; ++c) {
-      local = 0.0;
-      // Row sums start at zero; rows without pairs (most in a dilute flow) are
-      // neither written here nor read by the gather.
-      const std::size_t rowBegin = c * kRowsPerChunk, rowEnd = chunkEnd(c);
-      for (std::size_t i = rowBegin; i < rowEnd; ++i)
-        if (rowStart[i] != rowStart[i + 1]) sumF[i] = sumT[i] = {};
-      // One loop over the chunk's pairs, not a loop over each row's: the exit
-      // of a row's short loop (3-4 pairs in a dense packing, a varying count)
-      // mispredicted once per row.
-      for (std::uint32_t k = rowStart[rowBegin]; k < rowStart[rowEnd]; ++k) {
-        const std::uint32_t i = pairRow[k], j = partner[k];
-        Vec3 d = x[i] - x[j];
-        if constexpr (Periodic) d -= box.shift(image[k]);
-        const double rsum = radius[i] + radius[j];
-        const bool contact = norm2(d) < rsum * rsum;
-        batch.offer(contact, i, j, k, static_cast<std::uint32_t>(material[i] * materialCount + material[j]), d);
-        // A contact lost ends its history. One comparison of the two flags
-        // (touching 1, contact 0), not a branch on either: about half the
-        // listed pairs touch, so a branch on one of them mispredicts, while
-        // losing a contact is rare. (`touching[k] != 0 & !contact` let GCC
-        // branch on touching[k] first.)
-        if (touching[k] > static_cast<std::uint8_t>(contact)) [[unlikely]] {
-          touching[k] = 0;
-          shear[k] = {};
-          pf[k] = {};
-        }
-        if (batch.full()) flush();
-      }
-      flush();
-      chunkLost_[c] = local;
-    }
+    pairChunks<Periodic>(arrays, chunkOfPairShare(t, nt), chunkOfPairShare(t + 1, nt), normalLaw, tangentialLaw, dt);
   }
   for (double v : chunkLost_) dissipated += v;
 }
