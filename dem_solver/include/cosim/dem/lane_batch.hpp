@@ -9,8 +9,9 @@ namespace cosim::dem {
 
 /// A loop compiled for AVX-512 and AVX2 besides the baseline, the widest the
 /// CPU has picked at load time. The core is built without FMA contraction, so
-/// every clone gives the baseline's results bit for bit. (The outlined body of
-/// an OpenMP loop does not inherit it: put it on a function the loop calls.)
+/// every clone gives the baseline's results bit for bit, and with 256-bit
+/// vectors in the AVX-512 clone (dem_solver/CMakeLists.txt). (The outlined body
+/// of an OpenMP loop does not inherit it: put it on a function the loop calls.)
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define COSIM_DEM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
