@@ -127,6 +127,10 @@ class DemSystem {
   std::vector<Vec3> drivenEvalX_, drivenEvalF_;
   /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
+  /// Weighs each chunk's pair-loop work for the split: its listed pairs plus
+  /// kContactWeight times its contacts of the last step (chunkContacts_).
+  void weighChunks();
+  static constexpr std::uint32_t kContactWeight = 4;
   /// Adds the time since the last lap to `phase` while a timed step runs.
   void lap(double PhaseTimes::*phase);
   bool timedStep_ = false;
@@ -138,11 +142,13 @@ class DemSystem {
   std::vector<Vec3> pairSumF_, pairSumT_;  // row sides of the pair forces, per particle
   /// Force loops work in chunks of this many particles (rows); their sums
   /// are added in chunk order, whatever thread took a chunk.
-  static constexpr std::size_t kRowsPerChunk = 512;
+  static constexpr std::size_t kRowsPerChunk = 128;
   std::size_t chunkCount() const { return (particles.size() + kRowsPerChunk - 1) / kRowsPerChunk; }
   /// One past the last particle (row) of chunk c.
   std::size_t chunkEnd(std::size_t c) const { return std::min(particles.size(), (c + 1) * kRowsPerChunk); }
   std::vector<double> chunkLost_;          // energy lost in each chunk of rows (pair loop)
+  std::vector<std::uint32_t> chunkContacts_;  // contacts each chunk of rows found in the last pair loop
+  std::vector<std::uint64_t> chunkWork_;      // prefix sums of the chunks' weights (weighChunks)
   /// What one chunk of the gather loop sums up.
   struct GatherPartial {
     double dissipated = 0.0, work = 0.0;
