@@ -492,7 +492,7 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
   pairSumF_.resize(n);
   pairSumT_.resize(n);
   // Rows in chunks; each thread takes a contiguous run of chunks holding an
-  // equal share of the listed pairs (contacts crowd where the particles have
+  // equal share of the weighed work (contacts crowd where the particles have
   // settled, so equal shares of rows are far from equal work, while a
   // contiguous run keeps each thread's rows in its own cache). The energy lost
   // is summed per chunk and the chunks in order: it does not depend on the

@@ -125,7 +125,7 @@ class DemSystem {
   void carryJumpIntoHistory(std::size_t i, const Vec3& jump);
   // Each particle's position and force at the last force evaluation (read for driven ones).
   std::vector<Vec3> drivenEvalX_, drivenEvalF_;
-  /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of pairs).
+  /// Thread t of nt starts the pair loop at this chunk of rows (equal shares of weighed work).
   std::size_t chunkOfPairShare(std::size_t t, std::size_t nt) const;
   /// Weighs each chunk's pair-loop work for the split: its listed pairs plus
   /// kContactWeight times its contacts of the last step (chunkContacts_).
