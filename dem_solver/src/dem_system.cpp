@@ -86,6 +86,121 @@ COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p,
   }
 }
 
+// Plane contacts of one chunk of the gather waiting for evaluation, as the
+// pair loop's ContactBatch: found candidate by candidate (branchy), evaluated
+// in one loop without branches, handed back in the order found. The wall's
+// normal and velocity and the history are copied into the lane.
+struct PlaneBatch : LaneBatch<64> {
+  Lane<std::uint32_t> candidate, material;  // material: index into the pair table
+  Lane<double> overlap, nx, ny, nz, wx, wy, wz;
+  Lane<double> sx, sy, sz;  // history in, advanced history out
+  // Results: force on the particle (scaled by its weight), its torque, energy lost (unscaled).
+  Lane<double> fx, fy, fz, tx, ty, tz, lost;
+};
+
+// The plane contact forces of a batch, each lane independent of the others
+// (COSIM_DEM_SIMD_CLONES as for pairs). The contact point is halfway into
+// the overlap, c_i = -(r_i - u/2) n; R* = r_i and m* = m_i against a wall.
+template <class Normal, class Tangential>
+COSIM_DEM_SIMD_CLONES void evaluatePlaneContacts(PlaneBatch& b, const Particles& p,
+                                                 const PlaneCandidate* cand, const PairMaterial* pairs,
+                                                 const Normal& normalLaw, const Tangential& tangentialLaw, double dt) {
+  const std::size_t count = b.count;
+#pragma GCC ivdep
+  for (std::size_t e = 0; e < count; ++e) {
+    const std::uint32_t i = cand[b.candidate[e]].particle;
+    const double ri = p.radius[i], overlap = b.overlap[e];
+    const Vec3 n{b.nx[e], b.ny[e], b.nz[e]};
+    const Vec3 ci = -(ri - 0.5 * overlap) * n;
+    const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - Vec3{b.wx[e], b.wy[e], b.wz[e]};
+    Vec3 shear{b.sx[e], b.sy[e], b.sz[e]};
+    double lost = 0.0;
+    Vec3 f = composedForce(normalLaw, tangentialLaw, n, overlap, vrel, ri, p.mass[i], pairs[b.material[e]], dt, shear,
+                           lost);
+    f *= p.weight[i];  // Cheng 2022 Eq. 26: contact forces scaled by w
+    const Vec3 t = cross(ci, f);
+    b.fx[e] = f.x, b.fy[e] = f.y, b.fz[e] = f.z;
+    b.tx[e] = t.x, b.ty[e] = t.y, b.tz[e] = t.z;
+    b.sx[e] = shear.x, b.sy[e] = shear.y, b.sz[e] = shear.z;
+    b.lost[e] = lost;
+  }
+}
+
+// A plane contact of the chunk, for the gather to add to its particle.
+struct PlaneHit {
+  std::uint32_t particle;
+  Vec3 force, torque;
+  double lost, work;  // w x energy lost, work of the moving wall over the step
+};
+
+// What the plane pass reads and writes. The wall sums are the chunk's own.
+struct PlanePass {
+  const Particles* p;
+  const std::vector<PlaneWall>* walls;
+  const PairMaterial* pairs;
+  std::size_t materialCount;
+  std::vector<Vec3>* shear;             // [wall][particle]
+  std::vector<std::uint8_t>* touch;     // [wall][particle]
+  std::vector<Vec3>* contactForce;      // [wall][particle]
+  Vec3 *wallForce, *wallTorque;         // [wall]
+  double* wallStiffness;                // [wall]
+};
+
+// The contacts of one chunk's plane candidates, in candidate order: their
+// histories and forces stored, the walls' reactions summed, and each contact
+// listed in `hits` for the gather.
+template <class Normal, class Tangential>
+void planeContactsOfChunk(const PlanePass& a, const PlaneCandidate* cand, std::uint32_t begin,
+                          std::uint32_t end, const Normal& normalLaw, const Tangential& tangentialLaw, double dt,
+                          PlaneBatch& batch, std::vector<PlaneHit>& hits) {
+  const Particles& p = *a.p;
+  const std::vector<PlaneWall>& walls = *a.walls;
+  hits.clear();
+  const auto flush = [&] {
+    evaluatePlaneContacts(batch, p, cand, a.pairs, normalLaw, tangentialLaw, dt);
+    for (std::size_t e = 0; e < batch.count; ++e) {
+      const auto [i, wl] = cand[batch.candidate[e]];
+      const PlaneWall& wall = walls[wl];
+      const Vec3 fw{batch.fx[e], batch.fy[e], batch.fz[e]};
+      const double ri = p.radius[i], overlap = batch.overlap[e], w = p.weight[i];
+      a.shear[wl][i] = {batch.sx[e], batch.sy[e], batch.sz[e]};
+      a.touch[wl][i] = 1;
+      a.contactForce[wl][i] = fw;
+      // A servo's stability depends on how stiffly its contacts answer (PlaneWall::servoLoopGain).
+      if (wall.mode == PlaneWall::Mode::servo)
+        a.wallStiffness[wl] += w * normalLaw.evaluate(overlap, ri, a.pairs[batch.material[e]]).stiffness;
+      const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
+      a.wallForce[wl] -= fw;
+      a.wallTorque[wl] -= cross(p.x[i] + ci - wall.point, fw);
+      hits.push_back({i, fw, {batch.tx[e], batch.ty[e], batch.tz[e]}, w * batch.lost[e], dot(fw, wall.velocity) * dt});
+    }
+    batch.count = 0;
+  };
+  for (std::uint32_t c = begin; c < end; ++c) {
+    const auto [i, wl] = cand[c];
+    const PlaneWall& wall = walls[wl];
+    const double overlap = p.radius[i] - wall.distance(p.x[i]);
+    std::uint8_t& touch = a.touch[wl][i];
+    Vec3& shear = a.shear[wl][i];
+    if (overlap <= 0.0) {
+      if (touch) {  // contact lost: its history ends
+        touch = 0;
+        shear = {};
+      }
+      continue;
+    }
+    const std::size_t e = batch.count++;
+    batch.candidate[e] = c;
+    batch.material[e] = static_cast<std::uint32_t>(p.material[i] * a.materialCount + wall.material);
+    batch.overlap[e] = overlap;
+    batch.nx[e] = wall.normal.x, batch.ny[e] = wall.normal.y, batch.nz[e] = wall.normal.z;
+    batch.wx[e] = wall.velocity.x, batch.wy[e] = wall.velocity.y, batch.wz[e] = wall.velocity.z;
+    batch.sx[e] = shear.x, batch.sy[e] = shear.y, batch.sz[e] = shear.z;
+    if (batch.full()) flush();
+  }
+  flush();
+}
+
 // One naive particle-triangle contact before Modifications 1 and 2.
 }  // namespace
 
@@ -312,13 +427,33 @@ void DemSystem::markPlaneCandidates() {
   // In a periodic cell the affine motion is not in the rebuild criterion: no pruning.
   if (cell.enabled || planes.size() > 64) {
     planeNear.assign(n, ~std::uint64_t{0});
-    return;
-  }
-  planeNear.assign(n, 0);
+  } else {
+    planeNear.assign(n, 0);
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t w = 0; w < planes.size(); ++w)
-      if (planes[w].distance(particles.x[i]) < particles.radius[i] + neighbors.skin) planeNear[i] |= std::uint64_t{1} << w;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t w = 0; w < planes.size(); ++w)
+        if (planes[w].distance(particles.x[i]) < particles.radius[i] + neighbors.skin)
+          planeNear[i] |= std::uint64_t{1} << w;
+  }
+  indexPlaneCandidates();
+}
+
+void DemSystem::indexPlaneCandidates() {
+  const std::size_t n = particles.size(), nw = planes.size(), chunks = chunkCount();
+  if (planeNear.size() != n) throw std::logic_error("DemSystem: plane candidates do not match the particles");
+  planeCand_.clear();
+  chunkPlaneCand_.assign(chunks + 1, 0);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    for (std::size_t i = c * kRowsPerChunk; i < chunkEnd(c); ++i)
+      for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
+        const auto wl = static_cast<std::uint32_t>(std::countr_zero(near));
+        if (wl >= nw) break;
+        planeCand_.push_back({static_cast<std::uint32_t>(i), wl});
+      }
+    chunkPlaneCand_[c + 1] = static_cast<std::uint32_t>(planeCand_.size());
+  }
+  planeCandParticles_ = n;
+  planeCandPlanes_ = nw;
 }
 
 bool DemSystem::planesMovedBeyond(double limit) const {
@@ -331,20 +466,25 @@ bool DemSystem::planesMovedBeyond(double limit) const {
   return false;
 }
 
-void DemSystem::pairForces(double dt) {
-  // Built-in law combinations get a loop with the law calls inlined; any
-  // other (plug-in) combination runs the same loop through the interfaces.
+template <class Visit>
+void DemSystem::visitLaw(Visit&& visit) const {
+  // Built-in law combinations get loops with the law calls inlined; any
+  // other (plug-in) combination runs the same loops through the interfaces.
   const NormalLaw& nl = law_->normal();
   const TangentialLaw& tl = law_->tangential();
   if (const auto* hertz = dynamic_cast<const HertzNormal*>(&nl)) {
-    if (const auto* mindlin = dynamic_cast<const MindlinTangential*>(&tl)) return pairLoopFor(*hertz, *mindlin, dt);
-    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return pairLoopFor(*hertz, *none, dt);
+    if (const auto* mindlin = dynamic_cast<const MindlinTangential*>(&tl)) return visit(*hertz, *mindlin);
+    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return visit(*hertz, *none);
   }
   if (const auto* linear = dynamic_cast<const LinearSpring*>(&nl)) {
-    if (const auto* lt = dynamic_cast<const LinearTangential*>(&tl)) return pairLoopFor(*linear, *lt, dt);
-    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return pairLoopFor(*linear, *none, dt);
+    if (const auto* lt = dynamic_cast<const LinearTangential*>(&tl)) return visit(*linear, *lt);
+    if (const auto* none = dynamic_cast<const Frictionless*>(&tl)) return visit(*linear, *none);
   }
-  pairLoopFor(nl, tl, dt);
+  visit(nl, tl);
+}
+
+void DemSystem::pairForces(double dt) {
+  visitLaw([&](const auto& normal, const auto& tangential) { pairLoopFor(normal, tangential, dt); });
 }
 
 template <class Normal, class Tangential>
@@ -530,6 +670,11 @@ void DemSystem::pairLoop(const Normal& normalLaw, const Tangential& tangentialLa
 }
 
 void DemSystem::gatherForces(double dt, double closingKick) {
+  visitLaw([&](const auto& normal, const auto& tangential) { gatherLoop(normal, tangential, dt, closingKick); });
+}
+
+template <class Normal, class Tangential>
+void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangentialLaw, double dt, double closingKick) {
   Particles& p = particles;
   const std::size_t n = p.size();
   const std::size_t nw = planes.size(), nm = meshes.size();
@@ -545,9 +690,13 @@ void DemSystem::gatherForces(double dt, double closingKick) {
     for (auto& out : meshOut.contacts) out.resize(n * TriangleWallGroup::kSlots);
     meshOut.count.assign(n * nm, 0);
   }
+  if (planeCandParticles_ != n || planeCandPlanes_ != nw)
+    throw std::logic_error("DemSystem: plane candidates not indexed (DemSystem::indexPlaneCandidates not called)");
 #pragma omp parallel if (n > kParallelMin)
   {
     std::vector<MeshCandidate> cand, kept;
+    PlaneBatch planeBatch;
+    std::vector<PlaneHit> hits;
 #pragma omp for schedule(static)
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
       GatherPartial& local = gatherPartials_[chunk];
@@ -565,7 +714,6 @@ void DemSystem::gatherForces(double dt, double closingKick) {
       const std::uint32_t *rowStart = neighbors.rowStart.data(), *revStart = neighbors.revStart.data(),
                           *rev = neighbors.revPair.data();
       const PairForce* pf = pairForce.data();
-      const std::uint64_t* near = planeNear.data();
       const Vec3 g = gravity;
       const double damping = massDamping;
       const bool kicks = closingKick > 0.0;
@@ -575,6 +723,15 @@ void DemSystem::gatherForces(double dt, double closingKick) {
       local.planeStiffness.assign(nw, 0.0);
       local.meshForce.assign(nm, {});
       local.meshTorque.assign(nm, {});
+      // The chunk's plane contacts first, in a pass of their own: only the
+      // few particles near a plane have any, and batched their law is vectorised.
+      const PlanePass planePass{&p, &planes, materials.pairs().data(), materials.size(), planeShear.data(),
+                                planeTouch.data(), planeContactForce.data(), local.planeForce.data(),
+                                local.planeTorque.data(), local.planeStiffness.data()};
+      planeContactsOfChunk(planePass, planeCand_.data(), chunkPlaneCand_[chunk], chunkPlaneCand_[chunk + 1], normalLaw,
+                           tangentialLaw, dt, planeBatch, hits);
+      const PlaneHit* hit = hits.data();
+      const PlaneHit* const hitsEnd = hit + hits.size();
       for (std::size_t i = chunk * kRowsPerChunk; i < end; ++i) {
         const double w = weight[i];
         const bool free = driven[i] == 0;
@@ -600,7 +757,12 @@ void DemSystem::gatherForces(double dt, double closingKick) {
         }
         // Work of the external force (zero for most particles: adding it is cheaper than a test).
         sums.work += dot(fExt[i], v[i]) * dt;
-        if (near[i] != 0) addPlaneContacts(i, w, dt, local, sums, f, t);
+        for (; hit != hitsEnd && hit->particle == i; ++hit) {
+          f += hit->force;
+          t += hit->torque;
+          sums.dissipated += hit->lost;
+          sums.work += hit->work;
+        }
         for (std::size_t gm = 0; gm < nm; ++gm) addMeshContacts(i, gm, w, dt, local, sums, meshOut, cand, kept, f, t);
         if (damping > 0.0 && free) {
           // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
@@ -640,46 +802,6 @@ void DemSystem::gatherForces(double dt, double closingKick) {
     for (std::size_t i = 0; i < n; ++i)
       for (std::size_t c = 0; c < meshOut.count[i * nm + g]; ++c)
         meshes[g].contacts.push_back(meshOut.contacts[g][i * TriangleWallGroup::kSlots + c]);
-}
-
-void DemSystem::addPlaneContacts(std::size_t i, double w, double dt, GatherPartial& local, ChunkSums& sums, Vec3& f,
-                                 Vec3& t) {
-  Particles& p = particles;
-  const std::size_t nw = planes.size();
-  const double ri = p.radius[i];
-  const Vec3 xi = p.x[i];
-  // Only the planes marked near i; in increasing order, as over all of them.
-  for (std::uint64_t near = planeNear[i]; near != 0; near &= near - 1) {
-    const auto wl = static_cast<std::size_t>(std::countr_zero(near));
-    if (wl >= nw) break;
-    const PlaneWall& wall = planes[wl];
-    const double overlap = ri - wall.distance(xi);
-    std::uint8_t& touch = planeTouch[wl][i];
-    Vec3& shear = planeShear[wl][i];
-    if (overlap <= 0.0) {
-      if (touch) {  // contact lost: its history ends
-        touch = 0;
-        shear = {};
-      }
-      continue;
-    }
-    touch = 1;
-    const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
-    const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - wall.velocity;
-    double lost = 0.0;
-    const PairMaterial& pm = materials.pair(p.material[i], wall.material);
-    Vec3 fw = law_->force(wall.normal, overlap, vrel, ri, p.mass[i], pm, dt, shear, lost);
-    fw *= w;
-    // A servo's stability depends on how stiffly its contacts answer (PlaneWall::servoLoopGain).
-    if (wall.mode == PlaneWall::Mode::servo) local.planeStiffness[wl] += w * law_->normal().evaluate(overlap, ri, pm).stiffness;
-    planeContactForce[wl][i] = fw;
-    sums.dissipated += w * lost;
-    sums.work += dot(fw, wall.velocity) * dt;
-    f += fw;
-    t += cross(ci, fw);
-    local.planeForce[wl] -= fw;
-    local.planeTorque[wl] -= cross(xi + ci - wall.point, fw);
-  }
 }
 
 void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double dt, GatherPartial& local,

@@ -309,6 +309,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   }
   checkRestored(s, path);
   s.neighbors.indexPairs(s.particles.size());  // pairRow is not stored
+  s.indexPlaneCandidates();                    // nor the list of planeNear
   s.markDrivenEvaluated();  // written after a step: the forces are those of these positions
 }
 

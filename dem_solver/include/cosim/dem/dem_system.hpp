@@ -28,6 +28,11 @@ struct PairForce {
   Vec3 force, torqueJ;
 };
 
+/// A plane that may touch a particle before the next neighbour build (DemSystem::planeNear).
+struct PlaneCandidate {
+  std::uint32_t particle, plane;
+};
+
 class DemSystem {
  public:
   DemSystem();
@@ -102,6 +107,9 @@ class DemSystem {
   // each move less than skin/2 before one). All bits: no pruning (periodic
   // cell, more than 64 planes). Marked with the neighbour list.
   std::vector<std::uint64_t> planeNear;
+  /// Lists planeNear's (particle, plane) candidates in order for the force
+  /// loop; called where planeNear is marked or restored (it is not stored).
+  void indexPlaneCandidates();
   struct PlaneMark {
     Vec3 point, normal;
   };
@@ -172,9 +180,17 @@ class DemSystem {
     std::vector<std::vector<TriangleContact>> contacts;  // [group][particle * kSlots + slot]
     std::vector<std::uint8_t> count;                     // [particle * groups + group]
   };
-  /// Forces of the planes marked near particle i on it (added to f and t, scaled by its weight w),
-  /// with their reactions in `local` and energy lost and work in `sums`.
-  void addPlaneContacts(std::size_t i, double w, double dt, GatherPartial& local, ChunkSums& sums, Vec3& f, Vec3& t);
+  /// The candidates of planeNear in particle order, then plane order; chunk
+  /// c's are [chunkPlaneCand_[c], chunkPlaneCand_[c + 1]).
+  std::vector<PlaneCandidate> planeCand_;
+  std::vector<std::uint32_t> chunkPlaneCand_;
+  std::size_t planeCandParticles_ = 0, planeCandPlanes_ = 0;  // what the list was indexed for
+  /// Calls visit(normal, tangential) with the contact law's parts as their
+  /// concrete classes where they are built in, so the force loops inline them.
+  template <class Visit>
+  void visitLaw(Visit&& visit) const;
+  template <class Normal, class Tangential>
+  void gatherLoop(const Normal& normal, const Tangential& tangential, double dt, double closingKick);
   /// The same for triangle group g (Cheng 2022 Alg. 1), recording the contacts in `out`.
   void addMeshContacts(std::size_t i, std::size_t g, double w, double dt, GatherPartial& local, ChunkSums& sums,
                        MeshGather& out, std::vector<MeshCandidate>& cand, std::vector<MeshCandidate>& kept, Vec3& f,
