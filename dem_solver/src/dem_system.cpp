@@ -274,15 +274,25 @@ void DemSystem::advance(double dt) {
     for (std::size_t k = 0; k < 9; ++k) cell.h[k] += dt * dh[k];
     for (Vec3& x : particles.x) x += dt * mul(L, x);
   }
-  integrator_->beforeForces(particles, dt);
+  // The rebuild test in the opening pass, where the neighbour list's
+  // criterion is the displacement alone (in a periodic cell it is not).
+  const std::size_t n = particles.size();
+  DriftWatch watch{neighbors.xRef.data(), neighbors.driftLimit2()};
+  const bool watching = !cell.enabled && neighbors.builtFor(n);
+  integrator_->beforeForces(particles, dt, watching ? &watch : nullptr);
   // Driven particles (coupled hybrid PD particles, scene-driven spheres) are
   // not integrated; between the states sent from outside they move with their
-  // velocity. Flag 2 parks one where it is (hybrid_watch.hpp).
-  const std::size_t n = particles.size();
+  // velocity. Flag 2 parks one where it is (hybrid_watch.hpp). Their
+  // displacement is the watch's too: the opening pass skips them.
   if (driven) {
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
-    for (std::size_t i = 0; i < n; ++i)
+    bool beyond = false;
+#pragma omp parallel for schedule(static) if (n > kParallelMin) reduction(|| : beyond)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (particles.driven[i] == 0) continue;
       if (particles.driven[i] == 1) particles.x[i] += dt * particles.v[i];
+      if (watching) beyond |= norm2(particles.x[i] - watch.xRef[i]) > watch.limit2;
+    }
+    watch.beyond = watch.beyond || beyond;
   }
   for (auto& w : planes) w.move(dt);
   for (auto& m : meshes)
@@ -290,7 +300,7 @@ void DemSystem::advance(double dt) {
   lap(&PhaseTimes::open);
   // The closing kick inside the force loop, unless bonds add forces after it.
   const double fused = bonds.size() == 0 ? integrator_->fusedKick() : 0.0;
-  computeForces(dt, fused * dt);
+  forces(dt, fused * dt, watch.checked ? &watch.beyond : nullptr);
   if (fused == 0.0) integrator_->afterForces(particles, dt);
   // Driven particles moved (set from outside, then with v over the step)
   // while the system pushed on them with f: the prescribed motion did work.
@@ -376,8 +386,10 @@ void DemSystem::carryJumpIntoHistory(std::size_t i, const Vec3& jump) {
     if (i < planeTouch[w].size() && planeTouch[w][i]) planeShear[w][i] += tangential(planes[w].normal);
 }
 
-void DemSystem::computeForces(double dt, double closingKick) {
-  bool rebuild = neighbors.needsRebuild(particles, &cell);
+void DemSystem::computeForces(double dt, double closingKick) { forces(dt, closingKick, nullptr); }
+
+void DemSystem::forces(double dt, double closingKick, const bool* movedBeyondSkin) {
+  bool rebuild = movedBeyondSkin ? *movedBeyondSkin : neighbors.needsRebuild(particles, &cell);
   for (const auto& m : meshes) rebuild = rebuild || m.movedBeyond(0.5 * neighbors.skin);
   rebuild = rebuild || planeNear.size() != particles.size() || planesMovedBeyond(0.5 * neighbors.skin);
   if (rebuild) {
@@ -763,7 +775,14 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
           sums.dissipated += hit->lost;
           sums.work += hit->work;
         }
-        for (std::size_t gm = 0; gm < nm; ++gm) addMeshContacts(i, gm, w, dt, local, sums, meshOut, cand, kept, f, t);
+        if (nm > 0) [[unlikely]] {
+          // Through copies: were f, t and sums passed out of line themselves,
+          // they would live in memory for every particle of the loop.
+          Vec3 fm = f, tm = t;
+          ChunkSums sm = sums;
+          for (std::size_t gm = 0; gm < nm; ++gm) addMeshContacts(i, gm, w, dt, local, sm, meshOut, cand, kept, fm, tm);
+          f = fm, t = tm, sums = sm;
+        }
         if (damping > 0.0 && free) {
           // Mass damping for dynamic relaxation (Liu 2016 Sec. 2.3.2: c_I); its work is dissipated.
           const Vec3 fd = (-damping * w * mass[i]) * v[i];

@@ -100,6 +100,34 @@ TEST(DemIntegrators, OpeningPassTurnsEverySphereAsRotated) {
   omp_set_num_threads(before);
 }
 
+// The opening pass answers the neighbour list's rebuild test (DriftWatch).
+// Positions set from outside between steps count too: a free sphere put by
+// hand, and a driven one put by setDrivenState(), next to a sphere they were
+// far from at the last build must feel it in the next step, under either integrator.
+TEST(DemIntegrators, ASphereMovedBetweenStepsGetsItsNewContact) {
+  for (const char* integrator : {"leapfrog", "velocity-verlet"})
+    for (const bool driven : {false, true}) {
+      DemSystem s;
+      s.setIntegrator(integrator);
+      s.setContactLaw("hertz", "none", "none");
+      s.materials.add(glass());
+      s.particles.add({0, 0, 0}, kR, 2500.0);
+      s.particles.add({10 * kR, 0, 0}, kR, 2500.0);
+      if (driven) s.particles.driven[1] = 1;
+      s.neighbors.skin = 0.1 * kR;
+      s.initialize();
+      const double dt = 1e-7;
+      s.advance(dt);
+      const auto builds = s.neighbors.builds;
+      const Vec3 next{1.99 * kR, 0, 0};  // overlapping sphere 0 by 0.01 r
+      if (driven) s.setDrivenState(1, next, {});
+      else s.particles.x[1] = next;
+      s.advance(dt);
+      EXPECT_EQ(s.neighbors.builds, builds + 1) << integrator << (driven ? ", driven" : ", free");
+      EXPECT_LT(s.particles.f[0].x, 0.0) << integrator << (driven ? ", driven" : ", free") << ": no contact force";
+    }
+}
+
 TEST(DemWalls, ServoWallReachesTargetStress) {
   DemSystem s;
   Material m = glass(0.3, 0.3);

@@ -53,14 +53,18 @@ void turnAll(TurnBatch& b, Quat* q) {
 
 }  // namespace
 
-void kickAndDrift(Particles& p, double dtKick, double dt) {
+void kickAndDrift(Particles& p, double dtKick, double dt, DriftWatch* watch) {
   const std::size_t n = p.size();
   const std::uint8_t* driven = p.driven.data();
   const double *weight = p.weight.data(), *invMass = p.invMass.data(), *invInertia = p.invInertia.data();
   const Vec3 *f = p.f.data(), *torque = p.torque.data();
   Vec3 *x = p.x.data(), *v = p.v.data(), *omega = p.omega.data();
   Quat* q = p.q.data();
-#pragma omp parallel if (n > kParallelMin)
+  // Without a watch every particle is tested against itself: never beyond.
+  const Vec3* xRef = watch ? watch->xRef : x;
+  const double limit2 = watch ? watch->limit2 : 0.0;
+  bool beyond = false;
+#pragma omp parallel if (n > kParallelMin) reduction(|| : beyond)
   {
     TurnBatch batch;
 #pragma omp for schedule(static)
@@ -68,6 +72,7 @@ void kickAndDrift(Particles& p, double dtKick, double dt) {
       if (driven[i]) continue;
       kick(weight[i], invMass[i], invInertia[i], f[i], torque[i], dtKick, v[i], omega[i]);
       x[i] += dt * v[i];
+      beyond |= norm2(x[i] - xRef[i]) > limit2;  // no branch: rarely true
       // Most spheres of a dilute flow have never turned (no contact yet): their
       // orientations are neither read nor written (rotated() would return q).
       const Vec3 phi = dt * omega[i];
@@ -75,6 +80,10 @@ void kickAndDrift(Particles& p, double dtKick, double dt) {
       if (batch.full()) turnAll(batch, q);
     }
     turnAll(batch, q);
+  }
+  if (watch) {
+    watch->checked = true;
+    watch->beyond = beyond;
   }
 }
 

@@ -8,7 +8,7 @@ namespace {
 
 class Leapfrog final : public Integrator {
  public:
-  void beforeForces(Particles& p, double dt) const override { kickAndDrift(p, dt, dt); }
+  void beforeForces(Particles& p, double dt, DriftWatch* watch) const override { kickAndDrift(p, dt, dt, watch); }
   void afterForces(Particles&, double) const override {}
 };
 

@@ -9,7 +9,7 @@ namespace {
 
 class VelocityVerlet final : public Integrator {
  public:
-  void beforeForces(Particles& p, double dt) const override { kickAndDrift(p, 0.5 * dt, dt); }
+  void beforeForces(Particles& p, double dt, DriftWatch* watch) const override { kickAndDrift(p, 0.5 * dt, dt, watch); }
   double fusedKick() const override { return 0.5; }
   void afterForces(Particles& p, double dt) const override {
     const std::size_t n = p.size();

@@ -13,7 +13,7 @@ namespace cosim::dem {
 
 bool NeighborList::needsRebuild(const Particles& p, const PeriodicCell* cell) const {
   const std::size_t n = p.size();
-  if (xRef.size() != n || rowStart.size() != n + 1) return true;
+  if (!builtFor(n)) return true;
   if (cell && cell->enabled) {
     // Affine motion does not change fractional coordinates; the fluctuation is
     // H (s - s_ref), and the deformation since the build changes a pair
@@ -34,7 +34,7 @@ bool NeighborList::needsRebuild(const Particles& p, const PeriodicCell* cell) co
         rebuild = true;
     return rebuild;
   }
-  const double limit = 0.25 * skin * skin;  // (skin/2)^2: two particles may approach by skin
+  const double limit = driftLimit2();
   bool rebuild = false;
 #pragma omp parallel for schedule(static) reduction(|| : rebuild) if (n > kParallelMin)
   for (std::size_t i = 0; i < n; ++i)

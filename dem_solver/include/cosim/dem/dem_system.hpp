@@ -116,6 +116,9 @@ class DemSystem {
   std::vector<PlaneMark> planesAtMark;  // each plane when planeNear was marked
 
  private:
+  /// computeForces(), with the displacement part of the rebuild test already
+  /// answered (by the opening pass) when movedBeyondSkin is not null.
+  void forces(double dt, double closingKick, const bool* movedBeyondSkin);
   void pairForces(double dt);
   template <class Normal, class Tangential>
   void pairLoopFor(const Normal& normal, const Tangential& tangential, double dt);

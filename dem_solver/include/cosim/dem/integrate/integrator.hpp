@@ -11,10 +11,23 @@
 
 namespace cosim::dem {
 
+/// The neighbour list's rebuild test asked of the opening pass, which has each
+/// new position at hand: did a particle end its drift farther than
+/// sqrt(limit2) from its reference xRef? A dilute step is bound by memory
+/// traffic, and a pass of its own reads every position again. An integrator
+/// that does not answer leaves `checked` false, and the test runs on its own.
+struct DriftWatch {
+  const Vec3* xRef = nullptr;
+  double limit2 = 0.0;
+  bool checked = false;
+  bool beyond = false;
+};
+
 class Integrator {
  public:
   virtual ~Integrator() = default;
-  virtual void beforeForces(Particles& p, double dt) const = 0;
+  /// The update before the forces; answers `watch` if given (may be null).
+  virtual void beforeForces(Particles& p, double dt, DriftWatch* watch) const = 0;
   virtual void afterForces(Particles& p, double dt) const = 0;
   /// When afterForces() is only kick(p, i, fusedKick() dt) for every particle
   /// not driven: that fraction (else 0). The force loop then kicks each
@@ -44,6 +57,7 @@ inline void kick(Particles& p, std::size_t i, double dtKick) {
 /// arrays are read through pointers taken once: through the vectors, every
 /// store could alias their members as far as the compiler knows, and it
 /// reloaded their data pointers for each particle.
-void kickAndDrift(Particles& p, double dtKick, double dt);
+/// With a watch, also its test over the particles drifted (not the driven ones).
+void kickAndDrift(Particles& p, double dtKick, double dt, DriftWatch* watch = nullptr);
 
 }  // namespace cosim::dem

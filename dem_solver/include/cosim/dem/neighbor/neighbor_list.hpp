@@ -27,6 +27,11 @@ class NeighborList {
   /// True when some particle moved more than skin/2 since the last build
   /// (in a periodic cell: fluctuation plus the cell's deformation since then).
   bool needsRebuild(const Particles& p, const PeriodicCell* cell = nullptr) const;
+  /// Whether the list is built for n particles (if not, it needs a build).
+  bool builtFor(std::size_t n) const { return xRef.size() == n && rowStart.size() == n + 1; }
+  /// (skin/2)^2: outside a periodic cell, a particle farther than skin/2 from
+  /// its position at the build calls for a rebuild (two may approach by skin).
+  double driftLimit2() const { return 0.25 * skin * skin; }
   /// Rebuilds the list; contact history of pairs still listed is kept. With a
   /// periodic cell, positions must lie in the cell; each pair stores the
   /// image shift n of its partner (partner at x_j + H n).
