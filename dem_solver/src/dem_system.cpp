@@ -722,6 +722,7 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
                    *invInertia = p.invInertia.data();
       const std::uint8_t* driven = p.driven.data();
       const Vec3 *fExt = p.fExt.data(), *sumF = pairSumF_.data(), *sumT = pairSumT_.data();
+      const bool external = p.fExt.any();  // else all zero: not read
       Vec3 *v = p.v.data(), *omega = p.omega.data(), *force = p.f.data(), *torque = p.torque.data();
       const std::uint32_t *rowStart = neighbors.rowStart.data(), *revStart = neighbors.revStart.data(),
                           *rev = neighbors.revPair.data();
@@ -749,7 +750,8 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
         const bool free = driven[i] == 0;
         // Cheng 2022 Eq. 26: w scales body force. A driven particle's force is its
         // contact reaction only: a hybrid PD particle gets gravity from PD (Hartmann Sec. 3.2).
-        Vec3 f = free ? (w * mass[i]) * g + fExt[i] : fExt[i];
+        const Vec3 fe = external ? fExt[i] : Vec3{};
+        Vec3 f = free ? (w * mass[i]) * g + fe : fe;
         Vec3 t{};
         {
           // The row side was summed in the pair loop, for rows with pairs only
@@ -768,7 +770,7 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
           t = {tx, ty, tz};
         }
         // Work of the external force (zero for most particles: adding it is cheaper than a test).
-        sums.work += dot(fExt[i], v[i]) * dt;
+        if (external) sums.work += dot(fe, v[i]) * dt;
         for (; hit != hitsEnd && hit->particle == i; ++hit) {
           f += hit->force;
           t += hit->torque;

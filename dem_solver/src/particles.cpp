@@ -1,6 +1,8 @@
 #include "cosim/dem/particles.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 #include <numbers>
 
 namespace cosim::dem {
@@ -14,7 +16,7 @@ std::size_t Particles::add(const Vec3& position, double r, double density, std::
   q.push_back({});
   f.push_back({});
   torque.push_back({});
-  fExt.push_back({});
+  fExt.append();
   radius.push_back(r);
   mass.push_back(m);
   invMass.push_back(1.0 / m);
@@ -41,6 +43,16 @@ void Particles::reserve(std::size_t n) {
   x.reserve(n); v.reserve(n); omega.reserve(n); q.reserve(n); f.reserve(n); torque.reserve(n);
   fExt.reserve(n); radius.reserve(n); mass.reserve(n); invMass.reserve(n); inertia.reserve(n);
   invInertia.reserve(n); weight.reserve(n); material.reserve(n); driven.reserve(n); id.reserve(n);
+}
+
+void ExternalForces::clear() {
+  if (any_) std::fill(f_.begin(), f_.end(), Vec3{});
+  any_ = false;
+}
+
+void ExternalForces::restore(std::vector<Vec3> values) {
+  f_ = std::move(values);
+  any_ = std::any_of(f_.begin(), f_.end(), [](const Vec3& f) { return f.x != 0.0 || f.y != 0.0 || f.z != 0.0; });
 }
 
 void Particles::clearForces() {

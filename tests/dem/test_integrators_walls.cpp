@@ -128,6 +128,36 @@ TEST(DemIntegrators, ASphereMovedBetweenStepsGetsItsNewContact) {
     }
 }
 
+// External forces are read only where one was added (ExternalForces::any):
+// one added moves its sphere by f/m, clear() stops it, and a restored set
+// that holds one counts as set.
+TEST(DemIntegrators, AnExternalForceActsUntilCleared) {
+  DemSystem s;
+  s.materials.add(glass());
+  s.particles.add({0, 0, 0}, kR, 2500.0);
+  s.particles.add({10 * kR, 0, 0}, kR, 2500.0);
+  s.initialize();
+  EXPECT_FALSE(s.particles.fExt.any());
+  const double dt = 1e-6, m = s.particles.mass[1];
+  s.particles.fExt.add(1, {0, 2.0, 0});
+  ASSERT_TRUE(s.particles.fExt.any());
+  for (int k = 0; k < 10; ++k) s.advance(dt);
+  // Velocity Verlet: the first opening half-kick used the force evaluated before the add.
+  EXPECT_NEAR(s.particles.v[1].y, 9.5 * dt * 2.0 / m, 1e-12 * 2.0 / m);
+  EXPECT_EQ(s.particles.v[0].y, 0.0);
+  s.particles.fExt.clear();
+  EXPECT_FALSE(s.particles.fExt.any());
+  EXPECT_EQ(s.particles.fExt[1].y, 0.0);
+  const double before = s.particles.v[1].y;
+  for (int k = 0; k < 10; ++k) s.advance(dt);
+  // ... and the first opening half-kick after the clear the force evaluated before it.
+  EXPECT_NEAR(s.particles.v[1].y, before + 0.5 * dt * 2.0 / m, 1e-12 * 2.0 / m);
+  s.particles.fExt.restore({{0, 0, 0}, {0, 0, 1.0}});
+  EXPECT_TRUE(s.particles.fExt.any());
+  s.particles.fExt.restore({{0, 0, 0}, {0, 0, 0}});
+  EXPECT_FALSE(s.particles.fExt.any());
+}
+
 TEST(DemWalls, ServoWallReachesTargetStress) {
   DemSystem s;
   Material m = glass(0.3, 0.3);

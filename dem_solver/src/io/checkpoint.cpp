@@ -79,9 +79,10 @@ class Reader {
   std::string path_;
 };
 
-template <class IO, class P>
-void particleArrays(IO& io, P& p) {
-  io(p.x); io(p.v); io(p.omega); io(p.q); io(p.f); io(p.torque); io(p.fExt);
+// externalForces() writes or reads p.fExt in its place.
+template <class IO, class P, class Ext>
+void particleArrays(IO& io, P& p, Ext&& externalForces) {
+  io(p.x); io(p.v); io(p.omega); io(p.q); io(p.f); io(p.torque); externalForces();
   io(p.radius); io(p.mass); io(p.invMass); io(p.inertia); io(p.invInertia);
   io(p.weight); io(p.material); io(p.driven); io(p.id);
 }
@@ -194,7 +195,7 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
     w.pod(m.density); w.pod(m.young); w.pod(m.poisson); w.pod(m.restitution); w.pod(m.friction); w.pod(m.kn); w.pod(m.kt);
   }
   auto io = [&w](const auto& v) { w.vec(v); };
-  particleArrays(io, s.particles);
+  particleArrays(io, s.particles, [&] { io(s.particles.fExt.values()); });
   w.pod(s.neighbors.skin);
   w.pod(s.neighbors.builds);
   neighborArrays(io, s.neighbors);
@@ -257,7 +258,11 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   }
   s.contactLaw().prepare(s.materials);
   auto io = [&r](auto& v) { r.vec(v); };
-  particleArrays(io, s.particles);
+  particleArrays(io, s.particles, [&] {
+    std::vector<Vec3> forces;
+    io(forces);
+    s.particles.fExt.restore(std::move(forces));
+  });
   s.neighbors.skin = r.pod<double>();
   s.neighbors.builds = r.pod<std::uint64_t>();
   neighborArrays(io, s.neighbors);

@@ -132,10 +132,10 @@ void DemSolver::applyInputs(proto::CouplingData::Reader inputs) {
   // Forces on particles from couplings (CouplingForces, target particles).
   // The coupler restages its inputs every exchange: forces not sent again
   // stop acting, and several entries (couplings, zones) add up.
-  for (auto& e : p.fExt) e = {};
+  p.fExt.clear();
   wire::forEachCouplingForce(inputs.getForces(), proto::CouplingForces::Target::PARTICLES, p.size(), "particle",
                              [&](std::uint32_t id, const double* f) {
-                               p.fExt[id] += Vec3{f[0], f[1], f[2]};
+                               p.fExt.add(id, Vec3{f[0], f[1], f[2]});
                                tookCouplingForces_ = true;
                              });
   // Driven particles: kinematics from outside.

@@ -9,6 +9,34 @@
 
 namespace cosim::dem {
 
+/// Forces on the spheres supplied from outside (a coupling's) [N], zero
+/// unless added. Written only through add() and clear(), so any() is true
+/// whenever one is not zero, and the force loop reads none of them in a run
+/// without any (a dilute step is bound by memory traffic).
+class ExternalForces {
+ public:
+  std::size_t size() const { return f_.size(); }
+  const Vec3& operator[](std::size_t i) const { return f_[i]; }
+  const Vec3* data() const { return f_.data(); }
+  const std::vector<Vec3>& values() const { return f_; }
+  bool any() const { return any_; }
+  void add(std::size_t i, const Vec3& f) {
+    f_[i] += f;
+    any_ = true;
+  }
+  /// Every force back to zero.
+  void clear();
+  /// A zero force for a sphere appended to the set.
+  void append() { f_.push_back({}); }
+  void reserve(std::size_t n) { f_.reserve(n); }
+  /// Takes stored forces (a restored checkpoint).
+  void restore(std::vector<Vec3> values);
+
+ private:
+  std::vector<Vec3> f_;
+  bool any_ = false;
+};
+
 class Particles {
  public:
   std::size_t size() const { return radius.size(); }
@@ -27,7 +55,7 @@ class Particles {
   std::vector<Quat> q;        // orientations
   std::vector<Vec3> f;        // total force of the current step [N]
   std::vector<Vec3> torque;   // total torque [N m]
-  std::vector<Vec3> fExt;     // external force supplied from outside [N]
+  ExternalForces fExt;        // external force supplied from outside [N]
   std::vector<double> radius, mass, invMass, inertia, invInertia;
   std::vector<double> weight;  // Arlequin weight w (Cheng Eq. 26); 1 outside coupling zones
   std::vector<std::uint16_t> material;
