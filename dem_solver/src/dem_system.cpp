@@ -86,6 +86,11 @@ COSIM_DEM_SIMD_CLONES void evaluateContacts(ContactBatch& b, const Particles& p,
   }
 }
 
+// c_i of a sphere of radius r_i touching a wall (plane or triangle) with
+// overlap u along the wall's normal n (towards the sphere): halfway into the
+// overlap, c_i = -(r_i - u/2) n, as for pairs.
+inline Vec3 wallContactArm(double ri, double overlap, const Vec3& n) { return -(ri - 0.5 * overlap) * n; }
+
 // Plane contacts of one chunk of the gather waiting for evaluation, as the
 // pair loop's ContactBatch: found candidate by candidate (branchy), evaluated
 // in one loop without branches, handed back in the order found. The wall's
@@ -99,8 +104,7 @@ struct PlaneBatch : LaneBatch<64> {
 };
 
 // The plane contact forces of a batch, each lane independent of the others
-// (COSIM_DEM_SIMD_CLONES as for pairs). The contact point is halfway into
-// the overlap, c_i = -(r_i - u/2) n; R* = r_i and m* = m_i against a wall.
+// (COSIM_DEM_SIMD_CLONES as for pairs); R* = r_i and m* = m_i against a wall.
 template <class Normal, class Tangential>
 COSIM_DEM_SIMD_CLONES void evaluatePlaneContacts(PlaneBatch& b, const Particles& p,
                                                  const PlaneCandidate* cand, const PairMaterial* pairs,
@@ -111,7 +115,7 @@ COSIM_DEM_SIMD_CLONES void evaluatePlaneContacts(PlaneBatch& b, const Particles&
     const std::uint32_t i = cand[b.candidate[e]].particle;
     const double ri = p.radius[i], overlap = b.overlap[e];
     const Vec3 n{b.nx[e], b.ny[e], b.nz[e]};
-    const Vec3 ci = -(ri - 0.5 * overlap) * n;
+    const Vec3 ci = wallContactArm(ri, overlap, n);
     const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - Vec3{b.wx[e], b.wy[e], b.wz[e]};
     Vec3 shear{b.sx[e], b.sy[e], b.sz[e]};
     double lost = 0.0;
@@ -169,7 +173,7 @@ void planeContactsOfChunk(const PlanePass& a, const PlaneCandidate* cand, std::u
       // A servo's stability depends on how stiffly its contacts answer (PlaneWall::servoLoopGain).
       if (wall.mode == PlaneWall::Mode::servo)
         a.wallStiffness[wl] += w * normalLaw.evaluate(overlap, ri, a.pairs[batch.material[e]]).stiffness;
-      const Vec3 ci = -(ri - 0.5 * overlap) * wall.normal;
+      const Vec3 ci = wallContactArm(ri, overlap, wall.normal);
       a.wallForce[wl] -= fw;
       a.wallTorque[wl] -= cross(p.x[i] + ci - wall.point, fw);
       hits.push_back({i, fw, {batch.tx[e], batch.ty[e], batch.tz[e]}, w * batch.lost[e], dot(fw, wall.velocity) * dt});
@@ -290,7 +294,7 @@ void DemSystem::advance(double dt) {
     for (std::size_t i = 0; i < n; ++i) {
       if (particles.driven[i] == 0) continue;
       if (particles.driven[i] == 1) particles.x[i] += dt * particles.v[i];
-      if (watching) beyond |= norm2(particles.x[i] - watch.xRef[i]) > watch.limit2;
+      if (watching) beyond |= watch.exceededBy(i, particles.x[i]);
     }
     watch.beyond = watch.beyond || beyond;
   }
@@ -887,7 +891,7 @@ void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double d
     const auto& tri = m.triangles[kept[c].triangle];
     const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
                     kept[c].bary[2] * m.velocities[tri[2]];
-    const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+    const Vec3 ci = wallContactArm(ri, kept[c].overlap, kept[c].normal);
     const Vec3 vrel = p.v[i] + cross(p.omega[i], ci) - vw;
     fc[c] = law_->force(kept[c].normal, kept[c].overlap, vrel, ri, p.mass[i], pm, dt, next[c].shear, lostc[c]);
     sumF += norm(fc[c]);
@@ -897,7 +901,7 @@ void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double d
     // Modification 2: weight w = |f| / sum |f| (a single contact keeps weight 1).
     const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
     const Vec3 fw = (w * wgt) * fc[c];
-    const Vec3 ci = -(ri - 0.5 * kept[c].overlap) * kept[c].normal;
+    const Vec3 ci = wallContactArm(ri, kept[c].overlap, kept[c].normal);
     const auto& tri = m.triangles[kept[c].triangle];
     const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
                     kept[c].bary[2] * m.velocities[tri[2]];

@@ -60,9 +60,6 @@ void kickAndDrift(Particles& p, double dtKick, double dt, DriftWatch* watch) {
   const Vec3 *f = p.f.data(), *torque = p.torque.data();
   Vec3 *x = p.x.data(), *v = p.v.data(), *omega = p.omega.data();
   Quat* q = p.q.data();
-  // Without a watch every particle is tested against itself: never beyond.
-  const Vec3* xRef = watch ? watch->xRef : x;
-  const double limit2 = watch ? watch->limit2 : 0.0;
   bool beyond = false;
 #pragma omp parallel if (n > kParallelMin) reduction(|| : beyond)
   {
@@ -72,7 +69,7 @@ void kickAndDrift(Particles& p, double dtKick, double dt, DriftWatch* watch) {
       if (driven[i]) continue;
       kick(weight[i], invMass[i], invInertia[i], f[i], torque[i], dtKick, v[i], omega[i]);
       x[i] += dt * v[i];
-      beyond |= norm2(x[i] - xRef[i]) > limit2;  // no branch: rarely true
+      if (watch) beyond |= watch->exceededBy(i, x[i]);  // or-ed, no branch on the rare answer
       // Most spheres of a dilute flow have never turned (no contact yet): their
       // orientations are neither read nor written (rotated() would return q).
       const Vec3 phi = dt * omega[i];

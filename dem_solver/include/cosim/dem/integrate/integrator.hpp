@@ -21,6 +21,8 @@ struct DriftWatch {
   double limit2 = 0.0;
   bool checked = false;
   bool beyond = false;
+  /// Whether particle i at x is farther than sqrt(limit2) from its reference.
+  bool exceededBy(std::size_t i, const Vec3& x) const { return norm2(x - xRef[i]) > limit2; }
 };
 
 class Integrator {
