@@ -82,7 +82,7 @@ TEST(FemSolverAdapter, StaticCantileverThroughTheScene) {
   const auto e = s.energies();
   ASSERT_EQ(e.size(), 5u);
   EXPECT_GT(e[1].second, 0.0);
-  EXPECT_EQ(e[3].first, "hourglass_dissipated");
+  EXPECT_EQ(e[3].first, "viscous_dissipated");
 }
 
 TEST(FemSolverAdapter, PeriodicKeyTiesOppositeFaces) {
@@ -120,12 +120,23 @@ TEST(FemSolverAdapter, BadPeriodicAndHourglassKeysAreNamed) {
   viscous.replace(viscous.find("incompatible-modes"), 18, "one-point");
   const std::string implicit = errorOf([&] { h.setup(s, viscous); });
   EXPECT_NE(implicit.find("scene.yaml:19"), std::string::npos) << implicit;
-  EXPECT_NE(implicit.find("viscous hourglass control needs central-difference"), std::string::npos) << implicit;
+  EXPECT_NE(implicit.find("viscous element forces (hourglass type viscous, stiffness_damping) need central-difference"), std::string::npos) << implicit;
   std::string sticky = scene("{type: central-difference}", "      hourglass: {type: sticky}\n");
   sticky.replace(sticky.find("incompatible-modes"), 18, "one-point");
   const std::string type = errorOf([&] { h.setup(s, sticky); });
   EXPECT_NE(type.find("scene.yaml:20"), std::string::npos) << type;
   EXPECT_NE(type.find("hourglass.type must be stiffness or viscous"), std::string::npos) << type;
+  const std::string fullElement =
+      errorOf([&] { h.setup(s, scene("{type: central-difference}", "      stiffness_damping: 1.0e-5\n")); });
+  EXPECT_NE(fullElement.find("scene.yaml:20"), std::string::npos) << fullElement;
+  EXPECT_NE(fullElement.find("stiffness_damping applies to formulation one-point only (formulation is incompatible-modes)"),
+            std::string::npos)
+      << fullElement;
+  std::string negative = scene("{type: central-difference}", "      stiffness_damping: -1.0e-5\n");
+  negative.replace(negative.find("incompatible-modes"), 18, "one-point");
+  const std::string sign = errorOf([&] { h.setup(s, negative); });
+  EXPECT_NE(sign.find("scene.yaml:20"), std::string::npos) << sign;
+  EXPECT_NE(sign.find("stiffness_damping must be >= 0"), std::string::npos) << sign;
 }
 
 TEST(FemSolverAdapter, InitialVelocityIsAnAffineFieldUnderThePrescribedOnes) {

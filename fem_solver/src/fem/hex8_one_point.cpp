@@ -17,6 +17,14 @@
 //    dissipates c |q|^2 >= 0 and adds no stiffness. Since Gamma^T is zero on
 //    every linear velocity field, rigid motion and uniform strain rate are
 //    not damped.
+//  * stiffness damping (Rayleigh C = beta K): the viscous element stress
+//    sigma_v = beta (lambda tr(D) I + 2 mu D), D = sym(v^T Bbar) the element's
+//    rate of deformation on the reference geometry (small strains), force
+//    V Bbar sigma_v. Its damping fraction beta omega / 2 grows with the
+//    frequency: it removes element-scale vibration (omega near omega_max)
+//    and leaves the slow modes of the body almost undamped, which mass
+//    damping cannot do. The stable step shrinks by Liu Eq. 65
+//    (Model::criticalTimeStep).
 // Evaluation never forms Gamma: with c = X^T h (3 x 4, per element) and the
 // displacement gradient H = U^T Bbar, the hourglass modes are
 //   q = Gamma^T U = h^T U - c^T H^T,
@@ -66,6 +74,9 @@ class Hex8OnePoint final : public ElementFormulation {
   void initialise(const Mesh& mesh, const Material& material, const FormulationOptions& options) override {
     material_ = &material;
     viscous_ = options.hourglassType == FormulationOptions::Hourglass::viscous;
+    if (!(options.stiffnessDamping >= 0.0) || !std::isfinite(options.stiffnessDamping))
+      throw InputError("stiffness damping must be finite and >= 0");
+    beta_ = options.stiffnessDamping;
     if (!(options.hourglassCoefficient >= 0.0) || !std::isfinite(options.hourglassCoefficient))
       throw InputError("hourglass coefficient must be finite and >= 0");
     hex8::ReferenceGeometry geometry;
@@ -116,17 +127,22 @@ class Hex8OnePoint final : public ElementFormulation {
   }
 
   int pointsPerElement() const override { return 1; }
-  bool hasViscousForce() const override { return viscous_; }
+  bool hasViscousForce() const override { return viscous_ || beta_ > 0.0; }
   void viscousForce(std::size_t e, const Mat83& ve, Vec24& fe) const override {
-    if (!viscous_) {
-      fe.setZero();
-      return;
-    }
     const OnePointElement& el = elements_[e];
-    const double c = el.hourglass * pointScale(e, 0);
-    const Mat43 q = hourglassModes(el, ve, ve.transpose() * el.bbar);  // hourglass velocity modes
-    Mat83 f = c * (kHourglassBase * q);
-    f.noalias() -= el.bbar * (c * (el.base * q));
+    const Mat3 L = ve.transpose() * el.bbar;  // velocity gradient
+    Mat83 f = Mat83::Zero();
+    if (viscous_) {
+      const double c = el.hourglass * pointScale(e, 0);
+      const Mat43 q = hourglassModes(el, ve, L);  // hourglass velocity modes
+      f.noalias() += c * (kHourglassBase * q);
+      f.noalias() -= el.bbar * (c * (el.base * q));
+    }
+    if (beta_ > 0.0) {
+      const Mat3 D = 0.5 * (L + L.transpose());
+      const Mat3 sigma = beta_ * (material_->lambda() * D.trace() * Mat3::Identity() + 2.0 * material_->mu() * D);
+      f.noalias() += (el.volume * pointScale(e, 0)) * (el.bbar * sigma);
+    }
     toNodeMajor(f, fe);
   }
   void pointStates(std::size_t e, const Mat83& ue, MaterialPointState* out) const override {
@@ -166,6 +182,7 @@ class Hex8OnePoint final : public ElementFormulation {
   }
 
   std::vector<OnePointElement> elements_;
+  double beta_ = 0.0;  // stiffness damping [s]
   bool viscous_ = false;
   const Material* material_ = nullptr;
 };

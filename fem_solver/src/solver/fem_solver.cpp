@@ -298,7 +298,15 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     }
     mat.finish();
     const std::string formName = p.text("formulation", "full");
-    const FormulationOptions fo = readHourglass(p, formName);
+    FormulationOptions fo = readHourglass(p, formName);
+    if (p.has("stiffness_damping")) {
+      fo.stiffnessDamping = p.number("stiffness_damping");
+      if (!(fo.stiffnessDamping >= 0.0))
+        p.fail(p.get("stiffness_damping"), path + ".stiffness_damping must be >= 0 (Rayleigh beta, s)");
+      if (formName != "one-point")
+        p.fail(p.get("stiffness_damping"),
+               path + ".stiffness_damping applies to formulation one-point only (formulation is " + formName + ")");
+    }
     std::unique_ptr<Material> material;
     std::unique_ptr<ElementFormulation> formulation;
     atSection(p, [&] {
@@ -406,7 +414,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     }
     if (model_->formulation().hasViscousForce() && integratorType_ != "central-difference")
       in.fail(in.get("type"), in.path() + ".type is " + integratorType_ +
-                                  ", but viscous hourglass control needs central-difference (use hourglass type stiffness)");
+                                  ", but viscous element forces (hourglass type viscous, stiffness_damping) need central-difference");
     in.finish();
     // Arlequin weighting 1 - w (Cheng 2022 Eq. 25): a profile sent by the
     // coupler at setup wins over one in the params.
@@ -742,7 +750,7 @@ std::uint64_t FemSolver::checkpoint(const std::string& path) {
   put(&state_.time, 8);
   put(&state_.step, 8);
   put(&state_.externalWork, 8);
-  put(&state_.hourglassDissipated, 8);
+  put(&state_.viscousDissipated, 8);
   for (const auto* v : {&state_.u, &state_.v, &state_.a, &state_.fApplied, &state_.fViscous}) put(v->data(), 8 * v->size());
   if (external_) {  // GMH state: corotational stresses and F at the last exchange
     put(external_->stresses().data(), 8 * external_->stresses().size());
@@ -781,7 +789,7 @@ void FemSolver::restore(const std::string& path) {
   get(&s.time, 8);
   get(&s.step, 8);
   get(&s.externalWork, 8);
-  get(&s.hourglassDissipated, 8);
+  get(&s.viscousDissipated, 8);
   for (auto* v : {&s.u, &s.v, &s.a, &s.fApplied, &s.fViscous}) get(v->data(), 8 * v->size());
   if (external_) {
     get(external_->stresses().data(), 8 * external_->stresses().size());
@@ -821,7 +829,7 @@ wire::NamedValues FemSolver::energies() const {
   return {{"kinetic", e.kinetic},
           {"strain", e.strain},
           {"hourglass", e.hourglass},
-          {"hourglass_dissipated", e.hourglassDissipated},
+          {"viscous_dissipated", e.viscousDissipated},
           {"external_work", e.externalWork}};
 }
 

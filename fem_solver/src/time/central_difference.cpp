@@ -92,7 +92,7 @@ class CentralDifference final : public Integrator {
     for (const SlaveDof& s : model_.slaves()) state.v[s.dof] = state.v[s.master] + s.jump.velocity(t1);
     model_.checkFinite(state.v, "velocity");
     model_.addTieReactions(res_, fext_);
-    accumulateHourglassDissipation(state);
+    accumulateViscousDissipation(state);
     accumulateWork(state, state.uStepStart, fext_);
   }
 
@@ -105,11 +105,12 @@ class CentralDifference final : public Integrator {
     forEachDof(net_.size(), [&](std::size_t d) { net_[d] = fext[d] - fint[d] - fvisc[d] - alpha * m[d / 3] * vHalf[d]; });
     model_.constrainedAcceleration(net_, state.a);
   }
-  /// Trapezoidal work of the viscous hourglass forces over the step (the
-  /// forces resist the motion, so this is the energy they removed).
-  void accumulateHourglassDissipation(State& state) const {
+  /// Trapezoidal work of the viscous element forces (hourglass, stiffness
+  /// damping) over the step: they resist the motion, so this is the energy
+  /// they removed.
+  void accumulateViscousDissipation(State& state) const {
     if (!model_.formulation().hasViscousForce()) return;
-    state.hourglassDissipated += sumOverDofs(fvisc_.size(), [&](std::size_t d) {
+    state.viscousDissipated += sumOverDofs(fvisc_.size(), [&](std::size_t d) {
       return 0.5 * (state.fViscous[d] + fvisc_[d]) * (state.u[d] - state.uStepStart[d]);
     });
     state.fViscous = fvisc_;

@@ -19,8 +19,8 @@ void Integrator::accumulateWork(State& state, const std::vector<double>& uOld, c
 
 void requireNoViscousForces(const Model& model, const std::string& solver) {
   if (model.formulation().hasViscousForce())
-    throw InputError(solver + ": viscous hourglass control needs the central-difference integrator "
-                     "(use hourglass type stiffness here)");
+    throw InputError(solver + ": viscous element forces (hourglass type viscous, stiffness_damping) need the "
+                     "central-difference integrator");
 }
 
 void Integrator::predict(State&, double) {
@@ -39,7 +39,7 @@ Energies Integrator::energies(const State& state) const {
   en.hourglass = ee.hourglass;
   en.kinetic = model_.kineticEnergy(state.v, lumpedMass_);
   en.externalWork = state.externalWork;
-  en.hourglassDissipated = state.hourglassDissipated;
+  en.viscousDissipated = state.viscousDissipated;
   return en;
 }
 

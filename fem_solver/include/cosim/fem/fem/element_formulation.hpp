@@ -21,6 +21,10 @@ struct FormulationOptions {
   enum class Hourglass { stiffness, viscous };
   Hourglass hourglassType = Hourglass::stiffness;
   double hourglassCoefficient = 0.05;
+  /// One-point quadrature: stiffness-proportional (Rayleigh) damping beta [s],
+  /// a viscous element stress beta C : D with C the material's small-strain
+  /// elasticity and D the element's rate of deformation; 0 = none.
+  double stiffnessDamping = 0.0;
 };
 
 struct ElementEnergy {
@@ -44,7 +48,7 @@ class ElementFormulation {
   /// Internal force fe (24, node-major xyz), optional tangent, energies.
   virtual void evaluate(std::size_t e, const Mat83& ue, Vec24& fe, Mat24* Ke, ElementEnergy& energy) const = 0;
   virtual int pointsPerElement() const = 0;
-  /// Velocity-proportional element forces (viscous hourglass control).
+  /// Velocity-proportional element forces (viscous hourglass control, stiffness damping).
   virtual bool hasViscousForce() const { return false; }
   /// Element force fe (24) at nodal velocities ve; zero without viscous forces.
   virtual void viscousForce(std::size_t, const Mat83&, Vec24& fe) const { fe.setZero(); }

@@ -19,7 +19,7 @@ struct State {
   double time = 0.0;
   std::uint64_t step = 0;
   double externalWork = 0.0;
-  double hourglassDissipated = 0.0;
+  double viscousDissipated = 0.0;
   // u at the start of the step the explicit integrator is in. Between a split
   // step's predict() and correct() (GMH: the coupler's exchange, and any
   // checkpoint taken there) correct() needs it for the step's work.
