@@ -17,6 +17,11 @@ For every run it reads the FEM snapshots (block.h5) and computes
   w = (area of those elements) / (their extent along the band), the extent
   measured along the principal axis of their centroids plus one element size.
 
+The scatter of the element stresses at that strain: the standard deviation of
+-sigma_yy over the elements / its mean, and the correlation of face neighbours
+(negative when neighbours alternate; one-point elements do not see such a
+checkerboard in their nodal forces, so nothing in the coarse problem resists it).
+
 Mesh objectivity, per mode: the spread of the curves, (max over meshes - min
 over meshes) / mean peak stress, at every strain from the latest peak to the
 end of the shortest of all runs (RMS and maximum), and the same over the whole
@@ -39,17 +44,18 @@ def load(run):
     height = coords[:, 1].max() - coords[:, 1].min()
     top = np.where(np.abs(coords[:, 1] - coords[:, 1].max()) < 1e-9)[0]
     steps, snaps = snapshots(block)
-    eps, sig, disps = [], [], []
+    eps, sig, disps, syy = [], [], [], []
     for s, g in zip(steps, snaps):
         if s == 0:
             continue  # written before the cells' first answer: no stress yet
         d = g["displacement"][()]
         eps.append(-d[top, 1].mean() / height)
-        sig.append(-g["stress"][()][:, 1].mean())
+        syy.append(-g["stress"][()][:, 1])
+        sig.append(syy[-1].mean())
         disps.append(d)
     if not eps:
         sys.exit(f"{run}/block.h5 has no snapshots after step 0")
-    return {"coords": coords, "topo": topo, "eps": np.array(eps), "sig": np.array(sig), "disp": disps}
+    return {"coords": coords, "topo": topo, "eps": np.array(eps), "sig": np.array(sig), "disp": disps, "syy": syy}
 
 
 def element_shear(run, k):
@@ -77,6 +83,29 @@ def band_width(gamma, centroids, X, topo):
     length = np.ptp(proj) + np.hypot(dx * axis[0], dy * axis[1])
     angle = np.degrees(np.arctan2(abs(axis[1]), abs(axis[0])))
     return inside, area / length, angle
+
+
+def face_neighbours(topo):
+    """Pairs of elements that share a face (four nodes)."""
+    owner, pairs = {}, []
+    for e, nodes in enumerate(topo):
+        for face in ((0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)):
+            key = tuple(sorted(nodes[list(face)]))
+            if key in owner:
+                pairs.append((owner[key], e))
+            else:
+                owner[key] = e
+    return np.array(pairs, dtype=int).reshape(-1, 2)
+
+
+def stress_heterogeneity(syy, pairs):
+    """Element-to-element scatter of -sigma_yy: standard deviation / mean, and the
+    correlation of face neighbours (negative: neighbours alternate, a checkerboard
+    that one-point elements do not see in their nodal forces)."""
+    cv = syy.std() / syy.mean()
+    a, b = syy[pairs[:, 0]] - syy.mean(), syy[pairs[:, 1]] - syy.mean()
+    corr = float(np.mean(a * b) / syy.var()) if syy.var() > 0 and len(pairs) else float("nan")
+    return cv, corr
 
 
 def spread(runs, start, end):
@@ -117,18 +146,19 @@ def main():
         print(f"{e:>7.4f} " + " ".join(vals))
 
     print(f"\n{'run':>15} {'peak [kPa]':>11} {'at eps':>7} {'end eps':>8} {'end [kPa]':>10} {'softening':>10} "
-          f"{'band w [mm]':>12} {'angle':>6} {'at eps':>7}")
+          f"{'band w [mm]':>12} {'angle':>6} {'at eps':>7} {'std/mean':>9} {'nb corr':>8}")
     bands = {}
     for lab, r in runs.items():
         p = int(np.argmax(r["sig"]))
         k = int(np.argmin(np.abs(r["eps"] - a.at)))
         gamma, cent = element_shear(r, k)
         inside, width, angle = band_width(gamma, cent, r["coords"], r["topo"])
+        cv, corr = stress_heterogeneity(r["syy"][k], face_neighbours(r["topo"]))
         bands[lab] = (gamma, inside, k)
         r["peak_eps"] = r["eps"][p]
         print(f"{lab:>15} {r['sig'][p] / 1e3:>11.1f} {r['eps'][p]:>7.4f} {r['eps'][-1]:>8.4f} "
               f"{r['sig'][-1] / 1e3:>10.1f} {100 * (r['sig'][-1] - r['sig'][p]) / r['sig'][p]:>+9.1f}% "
-              f"{1e3 * width:>12.2f} {angle:>6.1f} {r['eps'][k]:>7.4f}")
+              f"{1e3 * width:>12.2f} {angle:>6.1f} {r['eps'][k]:>7.4f} {cv:>9.3f} {corr:>+8.2f}")
 
     end = min(r["eps"][-1] for r in runs.values())
     print(f"\nspread over the meshes, (max - min) / mean peak, up to the shortest run's end (eps {end:.4f}):")

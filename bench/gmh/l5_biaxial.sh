@@ -8,9 +8,11 @@
 # the stress-strain curves, the band widths and the post-peak spread of the
 # meshes per mode (bench/gmh/l5_biaxial.py, /usr/bin/python3 with h5py and
 # matplotlib; figure l5_biaxial.png in the work folder).
-# Usage: bench/gmh/l5_biaxial.sh [spheres per cell (200)] [coarse steps (1000)] [meshes ("6x12 8x16 12x24")]
+# Usage: bench/gmh/l5_biaxial.sh [spheres per cell (200)] [coarse steps (4000)] [meshes ("6x12 8x16 12x24")]
 #                                [modes ("local nonlocal")]
-# The top moves at 0.4 m/s whatever the step count: 5e-5 axial strain per step.
+# The top moves at the scene's 0.1 m/s (1.25e-5 axial strain per step of 1e-5 s: 4000
+# steps to 5 %) unless L5_TOP_VELOCITY [m/s] says otherwise; the step count sets how far
+# the run goes.
 # A run that stops early (a cell over its relaxation budget) is still analysed up to where it got.
 # Environment: COSIM_BIN (default build/bin), L5_WORK (default a fresh /tmp dir),
 # L5_LOCAL_FRACTION (beta of the nonlocal runs, default 0.15), L5_RADIUS (R of the
@@ -20,17 +22,21 @@
 # on_failure, L5_MAX_STEPS (the scene's 200000) their relaxation budget,
 # L5_STRESS_FREE=PRESSURE,AFTER their stress_free_exit (e.g. 400,2000: a job
 # whose cell is below 400 Pa mean stress and unrelaxed after 2000 steps ends
-# there, failed).
+# there, failed), L5_TOP_VELOCITY the top's speed [m/s] (the scene's 0.1; the
+# specimen starts in the matching homogeneous compression, v_y = -V y / H), and
+# L5_LOAD_STEPS the DEM steps over which each increment is applied (the scene's 5;
+# sessions before 33 ran 0.4 m/s with 20, docs/gmh_unit_cells.md "Quasi-static loading").
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
 count=${1:-200}
-steps=${2:-1000}
+steps=${2:-4000}
 meshes=${3:-6x12 8x16 12x24}
 modes=${4:-local nonlocal}
 beta=${L5_LOCAL_FRACTION:-0.15}
 radius=${L5_RADIUS:-6.75e-3}
-[[ "$radius" =~ ^[0-9.]+([eE][+-]?[0-9]+)?$ ]] || { echo "l5_biaxial.sh: L5_RADIUS must be a length in m (got '$radius')" >&2; exit 2; }
+number='^[0-9.]+([eE][+-]?[0-9]+)?$'
+[[ "$radius" =~ $number ]] || { echo "l5_biaxial.sh: L5_RADIUS must be a length in m (got '$radius')" >&2; exit 2; }
 for mesh in $meshes; do
   [[ $mesh =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]] || { echo "l5_biaxial.sh: mesh '$mesh' is not NXxNY (e.g. 8x16)" >&2; exit 2; }
 done
@@ -39,6 +45,16 @@ for mode in $modes; do
 done
 [[ -z "${L5_STRESS_FREE:-}" || "$L5_STRESS_FREE" =~ ^[0-9.eE+-]+,[0-9]+$ ]] ||
   { echo "l5_biaxial.sh: L5_STRESS_FREE must be PRESSURE,AFTER (e.g. 400,2000; got '$L5_STRESS_FREE')" >&2; exit 2; }
+[[ -z "${L5_TOP_VELOCITY:-}" || "$L5_TOP_VELOCITY" =~ $number ]] ||
+  { echo "l5_biaxial.sh: L5_TOP_VELOCITY must be a speed in m/s (got '$L5_TOP_VELOCITY')" >&2; exit 2; }
+[[ -z "${L5_LOAD_STEPS:-}" || "$L5_LOAD_STEPS" =~ ^[1-9][0-9]*$ ]] ||
+  { echo "l5_biaxial.sh: L5_LOAD_STEPS must be a whole number >= 1 (got '$L5_LOAD_STEPS')" >&2; exit 2; }
+loading=()
+if [[ -n "${L5_TOP_VELOCITY:-}" ]]; then
+  height=0.08  # configs/gmh/l5_biaxial.yaml: the specimen's 80 mm; boundary[3] is its top
+  loading=(--set "solvers.block.params.boundary[3].value=-$L5_TOP_VELOCITY"
+           --set "solvers.block.params.initial_velocity={gradient: {y: [0, $(/usr/bin/python3 -c "print(-$L5_TOP_VELOCITY / $height)"), 0]}}")
+fi
 work=${L5_WORK:-$(mktemp -d /tmp/gmh-l5.XXXXXX)}
 mkdir -p "$work"
 source "$root/bench/gmh/gmh_scene.sh"
@@ -68,6 +84,9 @@ for mesh in $meshes; do
       --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}" "${variants[@]}" \
       ${L5_ON_FAILURE:+--set "solvers.cells_a.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
       ${L5_ON_FAILURE:+--set "solvers.cells_b.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
+      "${loading[@]}" \
+      ${L5_LOAD_STEPS:+--set "solvers.cells_a.params.unit_cells.load_steps=$L5_LOAD_STEPS"} \
+      ${L5_LOAD_STEPS:+--set "solvers.cells_b.params.unit_cells.load_steps=$L5_LOAD_STEPS"} \
       ${L5_MAX_STEPS:+--set "solvers.cells_a.params.unit_cells.max_steps=$L5_MAX_STEPS"} \
       ${L5_MAX_STEPS:+--set "solvers.cells_b.params.unit_cells.max_steps=$L5_MAX_STEPS"} \
       ${L5_STRESS_FREE:+--set "solvers.cells_a.params.unit_cells.stress_free_exit={pressure: ${L5_STRESS_FREE%,*}, after: ${L5_STRESS_FREE#*,}}"} \
