@@ -137,6 +137,13 @@ TEST(FemSolverAdapter, BadPeriodicAndHourglassKeysAreNamed) {
   const std::string sign = errorOf([&] { h.setup(s, negative); });
   EXPECT_NE(sign.find("scene.yaml:20"), std::string::npos) << sign;
   EXPECT_NE(sign.find("stiffness_damping must be >= 0"), std::string::npos) << sign;
+  // The scalar (old) form of the hourglass key is refused on a full element too.
+  const std::string scalarHourglass =
+      errorOf([&] { h.setup(s, scene("{type: central-difference}", "      hourglass: 0.05\n")); });
+  EXPECT_NE(scalarHourglass.find("scene.yaml:20"), std::string::npos) << scalarHourglass;
+  EXPECT_NE(scalarHourglass.find("hourglass applies to formulation one-point only (formulation is incompatible-modes)"),
+            std::string::npos)
+      << scalarHourglass;
 }
 
 TEST(FemSolverAdapter, InitialVelocityIsAnAffineFieldUnderThePrescribedOnes) {

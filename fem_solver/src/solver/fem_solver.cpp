@@ -111,26 +111,44 @@ int directionIndex(const std::string& s) {
   return -1;
 }
 
+/// The keys that only the one-point element reads are refused for any other one.
+void requireOnePoint(ParamMap& p, const std::string& key, const std::string& formulation) {
+  if (formulation != "one-point")
+    p.fail(p.get(key), p.path() + "." + key + " applies to formulation one-point only (formulation is " + formulation + ")");
+}
+
 /// `hourglass: 0.05` (stiffness type, the old form) or
 /// `hourglass: {type: stiffness | viscous, coefficient: 0.05}`.
-FormulationOptions readHourglass(ParamMap& p, const std::string& formulation) {
-  FormulationOptions fo;
-  if (!p.has("hourglass")) return fo;
+void readHourglass(ParamMap& p, FormulationOptions& fo) {
   YAML::Node h = p.get("hourglass");
-  if (h.IsMap()) {
-    ParamMap hm(h, p.file(), p.path() + ".hourglass");
-    const std::string type = hm.text("type", "stiffness");
-    if (type != "stiffness" && type != "viscous") hm.fail(hm.get("type"), hm.path() + ".type must be stiffness or viscous");
-    fo.hourglassType = type == "viscous" ? FormulationOptions::Hourglass::viscous : FormulationOptions::Hourglass::stiffness;
-    fo.hourglassCoefficient = hm.number("coefficient", fo.hourglassCoefficient);
-    if (fo.hourglassCoefficient < 0.0) hm.fail(hm.get("coefficient"), hm.path() + ".coefficient must be >= 0");
-    hm.finish();
-    if (formulation != "one-point")
-      p.fail(h, p.path() + ".hourglass applies to formulation one-point only (formulation is " + formulation + ")");
-    return fo;
+  if (!h.IsMap()) {
+    fo.hourglassCoefficient = p.number("hourglass");
+    if (fo.hourglassCoefficient < 0.0) p.fail(h, p.path() + ".hourglass must be >= 0");
+    return;
   }
-  fo.hourglassCoefficient = p.number("hourglass");
-  if (fo.hourglassCoefficient < 0.0) p.fail(h, p.path() + ".hourglass must be >= 0");
+  ParamMap hm(h, p.file(), p.path() + ".hourglass");
+  const std::string type = hm.text("type", "stiffness");
+  if (type != "stiffness" && type != "viscous") hm.fail(hm.get("type"), hm.path() + ".type must be stiffness or viscous");
+  fo.hourglassType = type == "viscous" ? FormulationOptions::Hourglass::viscous : FormulationOptions::Hourglass::stiffness;
+  fo.hourglassCoefficient = hm.number("coefficient", fo.hourglassCoefficient);
+  if (fo.hourglassCoefficient < 0.0) hm.fail(hm.get("coefficient"), hm.path() + ".coefficient must be >= 0");
+  hm.finish();
+}
+
+/// Every key of FormulationOptions: `hourglass` and `stiffness_damping: beta`
+/// (Rayleigh C = beta K as an element viscosity, docs/fem.md), one-point only.
+FormulationOptions readFormulationOptions(ParamMap& p, const std::string& formulation) {
+  FormulationOptions fo;
+  if (p.has("hourglass")) {
+    readHourglass(p, fo);
+    requireOnePoint(p, "hourglass", formulation);
+  }
+  if (p.has("stiffness_damping")) {
+    fo.stiffnessDamping = p.number("stiffness_damping");
+    if (!(fo.stiffnessDamping >= 0.0))
+      p.fail(p.get("stiffness_damping"), p.path() + ".stiffness_damping must be >= 0 (Rayleigh beta, s)");
+    requireOnePoint(p, "stiffness_damping", formulation);
+  }
   return fo;
 }
 
@@ -298,15 +316,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     }
     mat.finish();
     const std::string formName = p.text("formulation", "full");
-    FormulationOptions fo = readHourglass(p, formName);
-    if (p.has("stiffness_damping")) {
-      fo.stiffnessDamping = p.number("stiffness_damping");
-      if (!(fo.stiffnessDamping >= 0.0))
-        p.fail(p.get("stiffness_damping"), path + ".stiffness_damping must be >= 0 (Rayleigh beta, s)");
-      if (formName != "one-point")
-        p.fail(p.get("stiffness_damping"),
-               path + ".stiffness_damping applies to formulation one-point only (formulation is " + formName + ")");
-    }
+    const FormulationOptions fo = readFormulationOptions(p, formName);
     std::unique_ptr<Material> material;
     std::unique_ptr<ElementFormulation> formulation;
     atSection(p, [&] {
