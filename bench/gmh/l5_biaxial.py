@@ -17,6 +17,10 @@ For every run it reads the FEM snapshots (block.h5) and computes
   w = (area of those elements) / (their extent along the band), the extent
   measured along the principal axis of their centroids plus one element size.
 
+The share of the external work stored in the hourglass springs at the end of
+the run (coupler.h5, the block's energy series): a large share means the
+hourglass stiffness, not the cells, carries part of the load.
+
 The scatter of the element stresses at that strain: the standard deviation of
 -sigma_yy over the elements / its mean, and the correlation of face neighbours
 (negative when neighbours alternate; one-point elements do not see such a
@@ -55,7 +59,18 @@ def load(run):
         disps.append(d)
     if not eps:
         sys.exit(f"{run}/block.h5 has no snapshots after step 0")
-    return {"coords": coords, "topo": topo, "eps": np.array(eps), "sig": np.array(sig), "disp": disps, "syy": syy}
+    return {"coords": coords, "topo": topo, "eps": np.array(eps), "sig": np.array(sig), "disp": disps, "syy": syy,
+            "hourglass_share": hourglass_share(run)}
+
+
+def hourglass_share(run):
+    """Hourglass energy / external work of the block at the last exchange (nan without the series)."""
+    try:
+        energy = open_h5(f"{run}/coupler.h5")["series/block/energy"]
+        work = energy["external_work"][-1]
+        return float(energy["hourglass"][-1] / work) if work > 0 else float("nan")
+    except (OSError, KeyError):
+        return float("nan")
 
 
 def element_shear(run, k):
@@ -146,7 +161,7 @@ def main():
         print(f"{e:>7.4f} " + " ".join(vals))
 
     print(f"\n{'run':>15} {'peak [kPa]':>11} {'at eps':>7} {'end eps':>8} {'end [kPa]':>10} {'softening':>10} "
-          f"{'band w [mm]':>12} {'angle':>6} {'at eps':>7} {'std/mean':>9} {'nb corr':>8}")
+          f"{'band w [mm]':>12} {'angle':>6} {'at eps':>7} {'std/mean':>9} {'nb corr':>8} {'hg/W':>6}")
     bands = {}
     for lab, r in runs.items():
         p = int(np.argmax(r["sig"]))
@@ -158,7 +173,7 @@ def main():
         r["peak_eps"] = r["eps"][p]
         print(f"{lab:>15} {r['sig'][p] / 1e3:>11.1f} {r['eps'][p]:>7.4f} {r['eps'][-1]:>8.4f} "
               f"{r['sig'][-1] / 1e3:>10.1f} {100 * (r['sig'][-1] - r['sig'][p]) / r['sig'][p]:>+9.1f}% "
-              f"{1e3 * width:>12.2f} {angle:>6.1f} {r['eps'][k]:>7.4f} {cv:>9.3f} {corr:>+8.2f}")
+              f"{1e3 * width:>12.2f} {angle:>6.1f} {r['eps'][k]:>7.4f} {cv:>9.3f} {corr:>+8.2f} {r['hourglass_share']:>6.3f}")
 
     end = min(r["eps"][-1] for r in runs.values())
     print(f"\nspread over the meshes, (max - min) / mean peak, up to the shortest run's end (eps {end:.4f}):")

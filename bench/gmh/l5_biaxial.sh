@@ -25,7 +25,9 @@
 # there, failed), L5_TOP_VELOCITY the top's speed [m/s] (the scene's 0.1; the
 # specimen starts in the matching homogeneous compression, v_y = -V y / H), and
 # L5_LOAD_STEPS the DEM steps over which each increment is applied (the scene's 5;
-# sessions before 33 ran 0.4 m/s with 20, docs/gmh_unit_cells.md "Quasi-static loading").
+# sessions before 33 ran 0.4 m/s with 20, docs/gmh_unit_cells.md "Quasi-static loading"),
+# and L5_HOURGLASS the one-point elements' hourglass coefficient kappa (the scene's 0.005;
+# sessions before 34 ran 0.05, docs/gmh_unit_cells.md "The hourglass stiffness").
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -49,6 +51,8 @@ done
   { echo "l5_biaxial.sh: L5_TOP_VELOCITY must be a speed in m/s (got '$L5_TOP_VELOCITY')" >&2; exit 2; }
 [[ -z "${L5_LOAD_STEPS:-}" || "$L5_LOAD_STEPS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "l5_biaxial.sh: L5_LOAD_STEPS must be a whole number >= 1 (got '$L5_LOAD_STEPS')" >&2; exit 2; }
+[[ -z "${L5_HOURGLASS:-}" || "$L5_HOURGLASS" =~ $number ]] ||
+  { echo "l5_biaxial.sh: L5_HOURGLASS must be a coefficient >= 0 (got '$L5_HOURGLASS')" >&2; exit 2; }
 loading=()
 if [[ -n "${L5_TOP_VELOCITY:-}" ]]; then
   height=0.08  # configs/gmh/l5_biaxial.yaml: the specimen's 80 mm; boundary[3] is its top
@@ -84,7 +88,7 @@ for mesh in $meshes; do
       --set "solvers.cells_b.params.unit_cells.file=$work/cell.ckpt" "${extra[@]}" "${variants[@]}" \
       ${L5_ON_FAILURE:+--set "solvers.cells_a.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
       ${L5_ON_FAILURE:+--set "solvers.cells_b.params.unit_cells.on_failure=$L5_ON_FAILURE"} \
-      "${loading[@]}" \
+      "${loading[@]}" ${L5_HOURGLASS:+--set "solvers.block.params.hourglass=$L5_HOURGLASS"} \
       ${L5_LOAD_STEPS:+--set "solvers.cells_a.params.unit_cells.load_steps=$L5_LOAD_STEPS"} \
       ${L5_LOAD_STEPS:+--set "solvers.cells_b.params.unit_cells.load_steps=$L5_LOAD_STEPS"} \
       ${L5_MAX_STEPS:+--set "solvers.cells_a.params.unit_cells.max_steps=$L5_MAX_STEPS"} \

@@ -128,6 +128,7 @@ class Hex8OnePoint final : public ElementFormulation {
 
   int pointsPerElement() const override { return 1; }
   bool hasViscousForce() const override { return viscous_ || beta_ > 0.0; }
+  double stiffnessDamping() const override { return beta_; }
   void viscousForce(std::size_t e, const Mat83& ve, Vec24& fe) const override {
     const OnePointElement& el = elements_[e];
     const Mat3 L = ve.transpose() * el.bbar;  // velocity gradient

@@ -50,6 +50,9 @@ class ElementFormulation {
   virtual int pointsPerElement() const = 0;
   /// Velocity-proportional element forces (viscous hourglass control, stiffness damping).
   virtual bool hasViscousForce() const { return false; }
+  /// Rayleigh beta [s] of the stiffness damping these forces include (0: none);
+  /// the model's critical step takes its damping fraction from it (Liu Eq. 65).
+  virtual double stiffnessDamping() const { return 0.0; }
   /// Element force fe (24) at nodal velocities ve; zero without viscous forces.
   virtual void viscousForce(std::size_t, const Mat83&, Vec24& fe) const { fe.setZero(); }
   /// Material point states of element e (pointsPerElement() entries).

@@ -233,7 +233,6 @@ class Model {
   std::vector<std::pair<std::vector<Quad>, double>> pressures_;
   std::vector<double> lumpedMass_, unscaledLumpedMass_;
   double massScale_ = 1.0;
-  double stiffnessDamping_ = 0.0;  // Rayleigh beta of the element viscosity [s]
   std::vector<double> gaussWeight_;  // 1 - w at the 8 Gauss points of each element, empty = 1
   std::vector<double> bodyAcceleration_;
   std::vector<std::size_t> colourStart_;            // blocks of colour c: colourBlocks_[colourStart_[c] ...]
