@@ -187,10 +187,10 @@ def main():
         result[mode] = (post[1], whole[1])
         print(f"  {mode:>9}: from the latest peak (eps {start:.4f}) RMS {100 * post[0]:.2f} %, max {100 * post[1]:.2f} %;"
               f" whole range RMS {100 * whole[0]:.2f} %, max {100 * whole[1]:.2f} % ({len(group)} meshes)")
-    if "local" in result and "nonlocal" in result:
+    for mode in sorted(set(result) - {"local"}) if "local" in result else []:
         ratios = [float("nan") if np.isnan(lo) or np.isnan(nl) else (lo / nl if nl > 0 else float("inf"))
-                  for lo, nl in zip(result["local"], result["nonlocal"])]
-        print(f"  local / nonlocal max spread: {ratios[0]:.2f} past the peak, {ratios[1]:.2f} over the whole range"
+                  for lo, nl in zip(result["local"], result[mode])]
+        print(f"  local / {mode} max spread: {ratios[0]:.2f} past the peak, {ratios[1]:.2f} over the whole range"
               " (issue: nonlocal within 5 %, local at least 2 x)")
 
     if a.png:

@@ -9,7 +9,7 @@
 # meshes per mode (bench/gmh/l5_biaxial.py, /usr/bin/python3 with h5py and
 # matplotlib; figure l5_biaxial.png in the work folder).
 # Usage: bench/gmh/l5_biaxial.sh [spheres per cell (200)] [coarse steps (4000)] [meshes ("6x12 8x16 12x24")]
-#                                [modes ("local nonlocal")]
+#                                [modes ("local nonlocal"; also "inelastic")]
 # The top moves at the scene's 0.1 m/s (1.25e-5 axial strain per step of 1e-5 s: 4000
 # steps to 5 %) unless L5_TOP_VELOCITY [m/s] says otherwise; the step count sets how far
 # the run goes.
@@ -28,6 +28,10 @@
 # sessions before 33 ran 0.4 m/s with 20, docs/gmh_unit_cells.md "Quasi-static loading"),
 # and L5_HOURGLASS the one-point elements' hourglass coefficient kappa (the scene's 0.005;
 # sessions before 34 ran 0.05, docs/gmh_unit_cells.md "The hourglass stiffness").
+# Mode "inelastic" averages the cells' inelastic stress instead of the strain increments
+# (nonlocal: {radius: L5_RADIUS, averages: inelastic_stress, over_nonlocal: L5_OVER_NONLOCAL (1),
+# stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults L1's 500-sphere cell: 7.56e8 Pa, 0.113;
+# docs/gmh_unit_cells.md "Averaging the inelastic stress").
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -43,7 +47,8 @@ for mesh in $meshes; do
   [[ $mesh =~ ^[1-9][0-9]*x[1-9][0-9]*$ ]] || { echo "l5_biaxial.sh: mesh '$mesh' is not NXxNY (e.g. 8x16)" >&2; exit 2; }
 done
 for mode in $modes; do
-  [[ $mode == local || $mode == nonlocal ]] || { echo "l5_biaxial.sh: mode '$mode' is not local or nonlocal" >&2; exit 2; }
+  [[ $mode == local || $mode == nonlocal || $mode == inelastic ]] ||
+    { echo "l5_biaxial.sh: mode '$mode' is not local, nonlocal or inelastic" >&2; exit 2; }
 done
 [[ -z "${L5_STRESS_FREE:-}" || "$L5_STRESS_FREE" =~ ^[0-9.eE+-]+,[0-9]+$ ]] ||
   { echo "l5_biaxial.sh: L5_STRESS_FREE must be PRESSURE,AFTER (e.g. 400,2000; got '$L5_STRESS_FREE')" >&2; exit 2; }
@@ -51,6 +56,12 @@ done
   { echo "l5_biaxial.sh: L5_TOP_VELOCITY must be a speed in m/s (got '$L5_TOP_VELOCITY')" >&2; exit 2; }
 [[ -z "${L5_LOAD_STEPS:-}" || "$L5_LOAD_STEPS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "l5_biaxial.sh: L5_LOAD_STEPS must be a whole number >= 1 (got '$L5_LOAD_STEPS')" >&2; exit 2; }
+over_nonlocal=${L5_OVER_NONLOCAL:-1}
+stiffness_e=${L5_STIFFNESS_E:-7.56e8}
+stiffness_nu=${L5_STIFFNESS_NU:-0.113}
+for v in over_nonlocal stiffness_e stiffness_nu; do
+  [[ "${!v}" =~ $number ]] || { echo "l5_biaxial.sh: L5_${v^^} must be a number >= 0 (got '${!v}')" >&2; exit 2; }
+done
 [[ -z "${L5_HOURGLASS:-}" || "$L5_HOURGLASS" =~ $number ]] ||
   { echo "l5_biaxial.sh: L5_HOURGLASS must be a coefficient >= 0 (got '$L5_HOURGLASS')" >&2; exit 2; }
 loading=()
@@ -78,6 +89,8 @@ for mesh in $meshes; do
   for mode in $modes; do
     extra=()
     [[ $mode == nonlocal ]] && extra=(--set "couplings.cells.nonlocal={radius: $radius, local_fraction: $beta}")
+    [[ $mode == inelastic ]] && extra=(--set "couplings.cells.nonlocal={radius: $radius, averages: inelastic_stress,
+      over_nonlocal: $over_nonlocal, stiffness: {E: $stiffness_e, nu: $stiffness_nu}}")
     echo "== $mode $mesh ($cells cells)"
     t0=$(date +%s)
     gmh_run "$root/configs/gmh/l5_biaxial.yaml" --set "schedule.coarse_steps=$steps" \

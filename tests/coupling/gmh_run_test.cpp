@@ -8,6 +8,7 @@
 
 #include <algorithm>
 
+#include <cmath>
 #include <csignal>
 #include <cstring>
 #include <fstream>
@@ -28,6 +29,10 @@ class GmhRun : public ::testing::Test {
     const auto f = run({binary("dem_prepare_cell"), "--out", (cellDir_ / "cell").string(), "--count", "100", "--seed", "3"},
                        120.0);
     ASSERT_EQ(f.code, 0) << f.out << f.err;
+    // Another packing (seed 4), for scenes whose two cells must differ.
+    const auto g = run({binary("dem_prepare_cell"), "--out", (cellDir_ / "other").string(), "--count", "100", "--seed", "4"},
+                       120.0);
+    ASSERT_EQ(g.code, 0) << g.out << g.err;
   }
   static void TearDownTestSuite() { fs::remove_all(cellDir_); }
 
@@ -74,6 +79,46 @@ couplings:
   - {name: cells, kind: gmh, fem: block, workers: [cells_a, cells_b])" << couplingExtra << R"(}
 output: {dir: )" << (dir_ / "run").string() << "}\n";
     return path.string();
+  }
+
+  /// scene() with four elements, cell 2 started from the other packing
+  /// (unit_cells.weakened names any cell file).
+  std::string sceneWithTwoPackings(int coarseSteps, const std::string& couplingExtra) const {
+    std::string text;
+    {
+      std::ifstream in(scene(coarseSteps, "2", couplingExtra, 4));
+      text.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::string b = "first_id: 2, count: 2, max_steps: 20000, load_steps: 20";
+    text.replace(text.find(b), b.size(), b + ", weakened: {file: " + (cellDir_ / "other.ckpt").string() + ", ids: [2]}");
+    std::ofstream(dir_ / "gmh.yaml") << text;
+    return (dir_ / "gmh.yaml").string();
+  }
+
+  /// Runs the scene at `path` whole into run/ with a checkpoint every `interval`
+  /// exchanges, copies it to cut/ with only the checkpoint of exchange
+  /// `interval`, and resumes cut/ from there; returns the resumed run.
+  Finished runWholeAndResumed(const std::string& path, int interval) const {
+    std::string text;
+    {
+      std::ifstream in(path);
+      text.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::string out = "output: {dir: " + (dir_ / "run").string() + "}";
+    text.replace(text.find(out), out.size(),
+                 "output: {dir: " + (dir_ / "run").string() + ", checkpoint_interval: " + std::to_string(interval) + "}");
+    std::ofstream(dir_ / "gmh.yaml") << text;
+    const auto whole = run({binary("coupler"), "run", (dir_ / "gmh.yaml").string(), "--no-progress"}, 120.0);
+    EXPECT_EQ(whole.code, 0) << whole.out << whole.err;
+    fs::copy(dir_ / "run", dir_ / "cut", fs::copy_options::recursive);
+    std::size_t kept = 0;
+    for (const auto& e : fs::directory_iterator(dir_ / "cut" / "checkpoints"))
+      if (e.path().filename() != "exchange-" + std::to_string(interval)) fs::remove_all(e.path());
+      else ++kept;
+    EXPECT_EQ(kept, 1u);
+    return run({binary("coupler"), "run", (dir_ / "gmh.yaml").string(), "--resume", "--out", (dir_ / "cut").string(),
+                "--no-progress"},
+               120.0);
   }
 
   static inline fs::path cellDir_;
@@ -229,24 +274,7 @@ TEST_F(GmhRun, AResumedRunContinuesBitForBit) {
   // A checkpoint between FEM's predict and correct (its split step, the
   // workers' cells, the coupling's owners) and the coupler's series, whose
   // per-cell rows come once per coarse step, not once per exchange.
-  std::string text;
-  {
-    std::ifstream in(scene(10));
-    text.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  const std::string out = "output: {dir: " + (dir_ / "run").string() + "}";
-  text.replace(text.find(out), out.size(), "output: {dir: " + (dir_ / "run").string() + ", checkpoint_interval: 8}");
-  std::ofstream(dir_ / "gmh.yaml") << text;
-  const auto whole = run({binary("coupler"), "run", (dir_ / "gmh.yaml").string(), "--no-progress"}, 120.0);
-  ASSERT_EQ(whole.code, 0) << whole.out << whole.err;
-  fs::copy(dir_ / "run", dir_ / "cut", fs::copy_options::recursive);
-  std::size_t kept = 0;
-  for (const auto& e : fs::directory_iterator(dir_ / "cut" / "checkpoints"))
-    if (e.path().filename() != "exchange-8") fs::remove_all(e.path());
-    else ++kept;
-  ASSERT_EQ(kept, 1u);
-  const auto resumed = run({binary("coupler"), "run", (dir_ / "gmh.yaml").string(), "--resume", "--out",
-                            (dir_ / "cut").string(), "--no-progress"}, 120.0);
+  const auto resumed = runWholeAndResumed(scene(10), 8);
   ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
   EXPECT_NE(resumed.err.find("resuming from exchange 8"), std::string::npos) << resumed.err;
   auto a = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
@@ -317,6 +345,85 @@ TEST_F(GmhRun, CheckRefusesANonPositiveNonlocalRadius) {
                        30.0);
     EXPECT_EQ(b.code, 2) << beta;
     EXPECT_NE((b.out + b.err).find("local_fraction"), std::string::npos) << b.out << b.err;
+  }
+}
+
+TEST_F(GmhRun, AveragingTheInelasticStressHandsFemTheCellsDifference) {
+  // Four elements in a row 0.01 m apart, R = 0.015 m: the bell weight to a
+  // face neighbour is w = (1 - (0.01/0.015)^2)^2. Every cell gets the same
+  // strain, so C : eps cancels, and s_I - <s>_I depends on the stress changes
+  // D_I = sigma_I - sigma_I0 alone: cells 0, 1, 3 share a packing (D_A), cell 2
+  // has the other (D_B). With D = D_B - D_A the corrections are 0 (cell 0,
+  // whose only neighbour is its own packing), m w D / (1 + 2w) (cell 1),
+  // -2 m w D / (1 + 2w) (cell 2) and m w D / (1 + w) (cell 3, one neighbour).
+  const double m = 2.0, w = std::pow(1.0 - (0.01 / 0.015) * (0.01 / 0.015), 2);
+  const auto path = sceneWithTwoPackings(10, ", nonlocal: {radius: 0.015, averages: inelastic_stress, over_nonlocal: 2, "
+                                             "stiffness: {E: 3.0e8, nu: 0.15}}");
+  const auto checked = run({binary("coupler"), "check", path}, 30.0);
+  ASSERT_EQ(checked.code, 0) << checked.out << checked.err;
+  EXPECT_NE(checked.out.find("nonlocal inelastic stress, bell kernel, R = 0.015 m, over-nonlocal factor 2"),
+            std::string::npos) << checked.out;
+  const auto f = run({binary("coupler"), "run", path, "--no-progress"}, 120.0);
+  ASSERT_EQ(f.code, 0) << f.out << f.err;
+  auto h5 = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
+  const auto stress = h5.readArray("/series/cells/cell_stress");  // rows: setup, then one per coarse step
+  const auto rms = h5.readArray("/series/cells/inelastic_correction_rms");  // one per coarse step
+  ASSERT_EQ(stress.size(), 11u * 36u);
+  ASSERT_EQ(rms.size(), 10u);
+  double largest = 0.0;
+  for (std::size_t k = 0; k < rms.size(); ++k) {
+    const double* now = &stress[36 * (k + 1)];
+    double sum = 0.0;
+    for (std::size_t c = 0; c < 9; ++c) {
+      // cell 2 against cell 1 (same strain, the two packings)
+      const double d = (now[18 + c] - stress[18 + c]) - (now[9 + c] - stress[9 + c]);
+      sum += d * d;
+      // cells 0, 1 and 3 are the same packing under the same strain: the same stress
+      EXPECT_NEAR(now[c], now[9 + c], 1e-9 * 416e3);
+      EXPECT_NEAR(now[27 + c], now[9 + c], 1e-9 * 416e3);
+    }
+    const double inner = w / (1.0 + 2.0 * w), end = w / (1.0 + w);
+    EXPECT_NEAR(rms[k], m * std::sqrt(sum) * std::sqrt((5.0 * inner * inner + end * end) / 4.0), 1e-6 * 416e3)
+        << "step " << k + 1;
+    largest = std::max(largest, rms[k]);
+  }
+  EXPECT_GT(largest, 10.0);  // the two packings do answer differently
+  std::ifstream in(dir_ / "run" / "run_report.json");
+  const auto figures = nlohmann::json::parse(in)["figures"];
+  EXPECT_EQ(figures["nonlocal_over_nonlocal"].get<double>(), 2.0);
+  EXPECT_DOUBLE_EQ(figures["nonlocal_max_inelastic_correction_rms_pa"].get<double>(), largest);
+}
+
+TEST_F(GmhRun, AResumedInelasticStressRunContinuesBitForBit) {
+  // The cells' strains and reference stresses travel with the checkpoint; the
+  // replayed replies of the resume count nothing twice. Exchange 7 is a
+  // coarse half: the resumed run's first answers are to jobs sent before.
+  const auto resumed = runWholeAndResumed(sceneWithTwoPackings(10, ", nonlocal: {radius: 0.015, averages: "
+                                                                   "inelastic_stress, stiffness: {E: 3.0e8, nu: 0.15}}"),
+                                          7);
+  ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
+  auto a = io::H5File::openReadOnly(dir_ / "run" / "coupler.h5");
+  auto b = io::H5File::openReadOnly(dir_ / "cut" / "coupler.h5");
+  for (const std::string series : {"cells/cell_stress", "cells/inelastic_correction_rms", "block/energy/strain"}) {
+    const auto x = a.readArray("/series/" + series), y = b.readArray("/series/" + series);
+    ASSERT_EQ(x.size(), y.size()) << series;
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(double))) << series;
+  }
+}
+
+TEST_F(GmhRun, CheckNamesBadInelasticStressKeys) {
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"averages: inelastic_stress", "stiffness"},
+      {"averages: inelastic_stress, local_fraction: 0.1, stiffness: {E: 3.0e8, nu: 0.15}", "local_fraction"},
+      {"averages: inelastic_stress, stiffness: {E: 3.0e8, nu: 0.5}", "stiffness.nu"},
+      {"averages: inelastic_stress, stiffness: {E: 0, nu: 0.2}", "stiffness.E"},
+      {"averages: inelastic_stress, over_nonlocal: 0, stiffness: {E: 3.0e8, nu: 0.2}", "over_nonlocal"},
+      {"averages: stress", "averages"},
+      {"over_nonlocal: 2", "over_nonlocal"}};
+  for (const auto& [keys, named] : cases) {
+    const auto f = run({binary("coupler"), "check", scene(5, "1", ", nonlocal: {radius: 0.015, " + keys + "}")}, 30.0);
+    EXPECT_EQ(f.code, 2) << keys;
+    EXPECT_NE((f.out + f.err).find("couplings[0].nonlocal." + named), std::string::npos) << keys << "\n" << f.out << f.err;
   }
 }
 

@@ -15,6 +15,11 @@
 // before they go out. An operator with an eigenvalue at or below zero stops
 // the run before the first job: its alternating strain modes would have no
 // stiffness or a negative one (see nonlocal_operator.hpp).
+// `nonlocal: {radius: R, averages: inelastic_stress, over_nonlocal: m,
+// stiffness: {E, nu}}` instead sends each cell its own increment and
+// averages the cells' inelastic stress on the way back to FEM
+// (InelasticStressAveraging: ours, since averaging the strain does not bound
+// the softening zone).
 #include <algorithm>
 #include <array>
 #include <map>
@@ -26,6 +31,7 @@
 #include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/config/scene.hpp"
 #include "cosim/coupler/couplings/coupling.hpp"
+#include "cosim/coupler/mapping/inelastic_stress_averaging.hpp"
 #include "cosim/coupler/mapping/nonlocal_operator.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/util/binary_record.hpp"
@@ -65,14 +71,39 @@ class GmhCoupling final : public Coupling {
       workers_.push_back(w);
     }
     if (workers_.empty()) m.error("workers", given ? "is empty" : "missing: the dem_solver workers that hold the unit cells");
-    if (m.has("nonlocal")) {
-      config::MapReader nl(m.node("nonlocal"), m.keyPath("nonlocal"), m.diagnostics());
-      radius_ = nl.requireNumber("radius", config::Range::positive());
+    if (m.has("nonlocal")) readNonlocal(m);
+  }
+
+  /// `nonlocal: {radius, averages: strain_increments (Liu) | inelastic_stress, ...}`.
+  void readNonlocal(config::MapReader& m) {
+    config::MapReader nl(m.node("nonlocal"), m.keyPath("nonlocal"), m.diagnostics());
+    nonlocalKey_ = m.keyPath("nonlocal");
+    radius_ = nl.requireNumber("radius", config::Range::positive());
+    const bool strain = nl.choice("averages", {"strain_increments", "inelastic_stress"}, "strain_increments") ==
+                        "strain_increments";
+    if (strain) {
       localFraction_ = nl.number("local_fraction", 0.0, config::Range{0.0, 1.0, false});
       if (localFraction_ >= 1.0) nl.error("local_fraction", "must be below 1 (1 is the local model: leave out nonlocal)");
-      nonlocalKey_ = m.keyPath("nonlocal");
-      nl.finish();
+      for (const char* key : {"over_nonlocal", "stiffness"})
+        if (nl.has(key)) nl.error(key, "belongs to averages: inelastic_stress");
+    } else {
+      if (nl.has("local_fraction"))
+        nl.error("local_fraction", "belongs to averages: strain_increments (the cells get their own increments here)");
+      const double over = nl.number("over_nonlocal", 1.0, config::Range::positive());
+      if (!nl.has("stiffness"))
+        nl.error("stiffness", "missing: {E, nu}, the isotropic stiffness C that a cell's strain meets where it departs "
+                              "from its neighbourhood's (at most the cells' own elastic stiffness, which "
+                              "bench/gmh/l1_elastic_constants measures)");
+      else {
+        config::MapReader c(nl.node("stiffness"), nl.keyPath("stiffness"), nl.diagnostics());
+        const double e = c.requireNumber("E", config::Range::positive());
+        const double nu = c.requireNumber("nu", config::Range{-1.0, 0.5, true});
+        if (nu >= 0.5) c.error("nu", "must be below 0.5 (0.5 is incompressible)");
+        c.finish();
+        if (c.diagnostics().ok()) inelastic_.emplace(e, nu, over);
+      }
     }
+    nl.finish();
   }
 
   std::string kind() const override { return "gmh"; }
@@ -89,7 +120,10 @@ class GmhCoupling final : public Coupling {
     out << fem_ << " unit-cell jobs -> " << workers_.size() << " worker(s):";
     for (const auto& w : workers_) out << " " << w;
     out << " (each cell stays on the worker that loaded it)";
-    if (radius_ > 0.0)
+    if (inelastic_)
+      out << "; nonlocal inelastic stress, bell kernel, R = " << radius_ << " m, over-nonlocal factor "
+          << inelastic_->overNonlocal() << " (the cells get their own increments)";
+    else if (radius_ > 0.0)
       out << "; nonlocal strain increments, bell kernel, R = " << radius_ << " m, local fraction " << localFraction_
           << " (Liu Eqs. 58-59)";
   }
@@ -109,9 +143,11 @@ class GmhCoupling final : public Coupling {
     // from the workers' replies saved with the checkpoint (every cell answers
     // its job each coarse step).
     if (ctx.exchange == 0 || owner_.empty()) learnOwners(ctx);
-    if (ctx.isNew(fem_) && ctx.outputs.count(fem_)) dispatch(ctx);
+    // The answers first: with every solver advancing at once they answer the
+    // jobs of the previous step, which dispatch() then replaces.
     // At setup this gathers the prepared cells' stresses: FEM's initial stresses (the confinement).
     if (std::any_of(workers_.begin(), workers_.end(), [&](const std::string& w) { return ctx.isNew(w); })) gather(ctx);
+    if (ctx.isNew(fem_) && ctx.outputs.count(fem_)) dispatch(ctx);
     if (!gathered_.ids.empty())
       ctx.inputs[fem_].stageUnitCellResults({gathered_.ids, gathered_.stresses, gathered_.porosities,
                                              gathered_.coordination, gathered_.indices, gathered_.steps});
@@ -144,7 +180,8 @@ class GmhCoupling final : public Coupling {
     collectJobs(ctx);
     if (radius_ > 0.0 && !ids_.empty()) smooth();  // FEM's setup reply carries no jobs
     for (auto& [w, jobs] : jobs_) jobs.ids.clear(), jobs.increments.clear();
-    const auto& inc = radius_ > 0.0 ? smoothed_ : increments_;
+    const auto& inc = radius_ > 0.0 && !inelastic_ ? smoothed_ : increments_;
+    if (inelastic_) inelastic_->send(ids_, increments_);
     for (std::size_t k = 0; k < ids_.size(); ++k) {
       auto owner = owner_.find(ids_[k]);
       if (owner == owner_.end())
@@ -185,17 +222,29 @@ class GmhCoupling final : public Coupling {
       if (positions_.size() != 3 * ids_.size())
         throw std::runtime_error("coupling '" + name() + "': nonlocal needs the quadrature point positions of the jobs, "
                                  "which '" + fem_ + "' did not send");
-      nonlocal_.emplace(positions_, radius_, localFraction_);
       nonlocalIds_ = ids_;
+      if (inelastic_) return buildInelasticOperator();
+      nonlocal_.emplace(positions_, radius_, localFraction_);
       smallestEigenvalue_ = nonlocal_->smallestEigenvalue();
       log::info("coupling '" + name() + "': nonlocal operator over " + std::to_string(ids_.size()) +
                 " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
                 " neighbours per point on average, smallest eigenvalue " + std::to_string(smallestEigenvalue_));
       refuseIndefinite();
     }
+    if (inelastic_) return;
     smoothed_.resize(increments_.size());
     nonlocal_->apply(increments_, 9, smoothed_);
   }
+  /// The inelastic stress is averaged with Eq. A.4's weights. No eigenvalue
+  /// check: an alternating pattern keeps the stiffness C whatever the
+  /// operator does to it (InelasticStressAveraging).
+  void buildInelasticOperator() {
+    nonlocal_.emplace(positions_, radius_);
+    log::info("coupling '" + name() + "': nonlocal inelastic-stress operator over " + std::to_string(ids_.size()) +
+              " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
+              " neighbours per point on average");
+  }
+
   /// An eigenvalue at or below zero: a strain pattern the averaging removes or
   /// reverses, so the coarse problem has a zero or negative stiffness for it.
   void refuseIndefinite() const {
@@ -219,6 +268,23 @@ class GmhCoupling final : public Coupling {
     gatherFrom(ctx);
     noteFailures(ctx.exchange, ctx.replay);
     record(ctx);
+    if (inelastic_) averageInelasticStress(ctx);
+  }
+
+  /// The stresses FEM gets: each cell's plus m (s_I - <s>_I) (InelasticStressAveraging).
+  /// The series keep the cells' own stresses; the correction's RMS goes beside them.
+  void averageInelasticStress(const ExchangeContext& ctx) {
+    if (!inelastic_->hasReference()) {  // setup: the cells before their first increment
+      inelastic_->setReference(gathered_.ids, gathered_.stresses);
+      return;
+    }
+    // A resumed run's replayed answers find nothing pending (restore() clears
+    // it; they come before the replayed jobs): they were counted before.
+    inelastic_->answered(gathered_.ids);
+    if (!nonlocal_) return;
+    const double rms = inelastic_->correct(*nonlocal_, nonlocalIds_, gathered_.ids, gathered_.stresses);
+    maxCorrection_ = std::max(maxCorrection_, rms);
+    if (ctx.series) ctx.series->append(name() + "/inelastic_correction_rms", rms);
   }
 
   /// Jobs that ended outside their worker's relaxation settings and were
@@ -291,9 +357,13 @@ class GmhCoupling final : public Coupling {
                                 std::to_string(failedCells_.size()) +
                                 " cells ended outside their relaxation settings and were accepted as they stood "
                                 "(on_failure: continue; series " + name() + "/failed_cells, the log names them)");
-    if (nonlocal_) {
+    if (nonlocal_ && !inelastic_) {
       f["nonlocal_local_fraction"] = localFraction_;
       f["nonlocal_smallest_eigenvalue"] = smallestEigenvalue_;
+    }
+    if (inelastic_) {
+      f["nonlocal_over_nonlocal"] = inelastic_->overNonlocal();
+      f["nonlocal_max_inelastic_correction_rms_pa"] = maxCorrection_;
     }
   }
 
@@ -303,12 +373,14 @@ class GmhCoupling final : public Coupling {
   void save(util::BinaryWriter& out) const override {
     out.pod(failedJobs_);
     out.vec(std::vector<std::uint32_t>(failedCells_.begin(), failedCells_.end()));
+    if (inelastic_) inelastic_->save(out), out.pod(maxCorrection_);
   }
   void restore(util::BinaryReader& in) override {
     failedJobs_ = in.pod<std::uint64_t>("failed unit-cell jobs");
     const auto cells = in.vec<std::uint32_t>("failed unit cells");
     if (cells.size() > failedJobs_) in.fail("failed unit cells", "more cells than failed jobs");
     failedCells_ = std::set<std::uint32_t>(cells.begin(), cells.end());
+    if (inelastic_) inelastic_->restore(in), maxCorrection_ = in.pod<double>("largest inelastic correction");
   }
 
  private:
@@ -400,6 +472,8 @@ class GmhCoupling final : public Coupling {
   std::vector<double> increments_, positions_, smoothed_;
   double dt_ = 0.0;
   std::optional<NonlocalOperator> nonlocal_;
+  std::optional<InelasticStressAveraging> inelastic_;  // averages: inelastic_stress
+  double maxCorrection_ = 0.0;                         // its largest RMS correction over the run [Pa]
   std::map<std::uint32_t, std::string> owner_;              // cell id -> worker
   std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
   std::map<std::string, WorkerJobs> jobs_;
