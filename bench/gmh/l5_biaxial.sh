@@ -29,9 +29,9 @@
 # and L5_HOURGLASS the one-point elements' hourglass coefficient kappa (the scene's 0.005;
 # sessions before 34 ran 0.05, docs/gmh_unit_cells.md "The hourglass stiffness").
 # Mode "inelastic" averages the cells' inelastic stress instead of the strain increments
-# (nonlocal: {radius: L5_RADIUS, averages: inelastic_stress, over_nonlocal: L5_OVER_NONLOCAL (1),
-# stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults L1's 500-sphere cell: 7.56e8 Pa, 0.113;
-# docs/gmh_unit_cells.md "Averaging the inelastic stress").
+# (nonlocal: {radius: L5_INELASTIC_RADIUS (13.5e-3: h <= R/2 on every mesh), averages: inelastic_stress,
+# over_nonlocal: L5_OVER_NONLOCAL (1), stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults
+# 7.56e7 Pa (a tenth of L1's 500-sphere cell) and 0.113; docs/gmh_unit_cells.md "Averaging the inelastic stress").
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -57,9 +57,10 @@ done
 [[ -z "${L5_LOAD_STEPS:-}" || "$L5_LOAD_STEPS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "l5_biaxial.sh: L5_LOAD_STEPS must be a whole number >= 1 (got '$L5_LOAD_STEPS')" >&2; exit 2; }
 over_nonlocal=${L5_OVER_NONLOCAL:-1}
-stiffness_e=${L5_STIFFNESS_E:-7.56e8}
+inelastic_radius=${L5_INELASTIC_RADIUS:-13.5e-3}
+stiffness_e=${L5_STIFFNESS_E:-7.56e7}
 stiffness_nu=${L5_STIFFNESS_NU:-0.113}
-for v in over_nonlocal stiffness_e stiffness_nu; do
+for v in inelastic_radius over_nonlocal stiffness_e stiffness_nu; do
   [[ "${!v}" =~ $number ]] || { echo "l5_biaxial.sh: L5_${v^^} must be a number >= 0 (got '${!v}')" >&2; exit 2; }
 done
 [[ -z "${L5_HOURGLASS:-}" || "$L5_HOURGLASS" =~ $number ]] ||
@@ -89,7 +90,7 @@ for mesh in $meshes; do
   for mode in $modes; do
     extra=()
     [[ $mode == nonlocal ]] && extra=(--set "couplings.cells.nonlocal={radius: $radius, local_fraction: $beta}")
-    [[ $mode == inelastic ]] && extra=(--set "couplings.cells.nonlocal={radius: $radius, averages: inelastic_stress,
+    [[ $mode == inelastic ]] && extra=(--set "couplings.cells.nonlocal={radius: $inelastic_radius, averages: inelastic_stress,
       over_nonlocal: $over_nonlocal, stiffness: {E: $stiffness_e, nu: $stiffness_nu}}")
     echo "== $mode $mesh ($cells cells)"
     t0=$(date +%s)
