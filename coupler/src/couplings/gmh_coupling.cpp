@@ -178,10 +178,12 @@ class GmhCoupling final : public Coupling {
 
   void dispatch(ExchangeContext& ctx) {
     collectJobs(ctx);
-    if (radius_ > 0.0 && !ids_.empty()) smooth();  // FEM's setup reply carries no jobs
+    const bool strainAveraging = radius_ > 0.0 && !inelastic_;
+    if (radius_ > 0.0 && !ids_.empty()) buildOperator();  // FEM's setup reply carries no jobs
+    if (strainAveraging && !ids_.empty()) smooth();
+    if (inelastic_) inelastic_->send(ids_, increments_);  // the cells get their own increments
     for (auto& [w, jobs] : jobs_) jobs.ids.clear(), jobs.increments.clear();
-    const auto& inc = radius_ > 0.0 && !inelastic_ ? smoothed_ : increments_;
-    if (inelastic_) inelastic_->send(ids_, increments_);
+    const auto& inc = strainAveraging ? smoothed_ : increments_;
     for (std::size_t k = 0; k < ids_.size(); ++k) {
       auto owner = owner_.find(ids_[k]);
       if (owner == owner_.end())
@@ -216,33 +218,32 @@ class GmhCoupling final : public Coupling {
     }
   }
 
+  /// The operator over the jobs' points, built at the first jobs (again if
+  /// FEM's job list changes). The inelastic form needs no eigenvalue check: an
+  /// alternating pattern keeps the stiffness C whatever the operator does to
+  /// it (InelasticStressAveraging).
+  void buildOperator() {
+    if (nonlocal_ && nonlocalIds_ == ids_) return;
+    if (positions_.size() != 3 * ids_.size())
+      throw std::runtime_error("coupling '" + name() + "': nonlocal needs the quadrature point positions of the jobs, "
+                               "which '" + fem_ + "' did not send");
+    nonlocalIds_ = ids_;
+    nonlocal_.emplace(positions_, radius_, localFraction_);
+    std::string what = "nonlocal operator over " + std::to_string(ids_.size()) + " points, R = " +
+                       std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
+                       " neighbours per point on average";
+    if (!inelastic_) {
+      smallestEigenvalue_ = nonlocal_->smallestEigenvalue();
+      what += ", smallest eigenvalue " + std::to_string(smallestEigenvalue_);
+    }
+    log::info("coupling '" + name() + "': " + what + (inelastic_ ? " (inelastic stress)" : ""));
+    if (!inelastic_) refuseIndefinite();
+  }
+
   /// Liu Eq. 58: every cell gets the bell-weighted mean increment of its neighbourhood.
   void smooth() {
-    if (!nonlocal_ || nonlocalIds_ != ids_) {
-      if (positions_.size() != 3 * ids_.size())
-        throw std::runtime_error("coupling '" + name() + "': nonlocal needs the quadrature point positions of the jobs, "
-                                 "which '" + fem_ + "' did not send");
-      nonlocalIds_ = ids_;
-      if (inelastic_) return buildInelasticOperator();
-      nonlocal_.emplace(positions_, radius_, localFraction_);
-      smallestEigenvalue_ = nonlocal_->smallestEigenvalue();
-      log::info("coupling '" + name() + "': nonlocal operator over " + std::to_string(ids_.size()) +
-                " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
-                " neighbours per point on average, smallest eigenvalue " + std::to_string(smallestEigenvalue_));
-      refuseIndefinite();
-    }
-    if (inelastic_) return;
     smoothed_.resize(increments_.size());
     nonlocal_->apply(increments_, 9, smoothed_);
-  }
-  /// The inelastic stress is averaged with Eq. A.4's weights. No eigenvalue
-  /// check: an alternating pattern keeps the stiffness C whatever the
-  /// operator does to it (InelasticStressAveraging).
-  void buildInelasticOperator() {
-    nonlocal_.emplace(positions_, radius_);
-    log::info("coupling '" + name() + "': nonlocal inelastic-stress operator over " + std::to_string(ids_.size()) +
-              " points, R = " + std::to_string(radius_) + " m, " + std::to_string(nonlocal_->meanNeighbours()) +
-              " neighbours per point on average");
   }
 
   /// An eigenvalue at or below zero: a strain pattern the averaging removes or

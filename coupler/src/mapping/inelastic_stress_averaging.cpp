@@ -43,9 +43,9 @@ std::map<std::uint32_t, Tensor> readTensors(util::BinaryReader& in, const char* 
 InelasticStressAveraging::InelasticStressAveraging(double youngsModulus, double poissonRatio, double overNonlocal)
     : m_(overNonlocal) {
   if (!(youngsModulus > 0.0) || !std::isfinite(youngsModulus))
-    throw std::invalid_argument("cell Young's modulus must be positive, got " + std::to_string(youngsModulus));
+    throw std::invalid_argument("stiffness E must be positive, got " + std::to_string(youngsModulus));
   if (!(poissonRatio > -1.0 && poissonRatio < 0.5))
-    throw std::invalid_argument("cell Poisson's ratio must lie in (-1, 0.5), got " + std::to_string(poissonRatio));
+    throw std::invalid_argument("stiffness nu must lie in (-1, 0.5), got " + std::to_string(poissonRatio));
   if (!(overNonlocal > 0.0) || !std::isfinite(overNonlocal))
     throw std::invalid_argument("over-nonlocal factor must be positive, got " + std::to_string(overNonlocal));
   lambda_ = youngsModulus * poissonRatio / ((1.0 + poissonRatio) * (1.0 - 2.0 * poissonRatio));
