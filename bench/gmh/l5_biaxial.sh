@@ -30,8 +30,9 @@
 # sessions before 34 ran 0.05, docs/gmh_unit_cells.md "The hourglass stiffness").
 # Mode "inelastic" averages the cells' inelastic stress instead of the strain increments
 # (nonlocal: {radius: L5_INELASTIC_RADIUS (13.5e-3: h <= R/2 on every mesh), averages: inelastic_stress,
-# over_nonlocal: L5_OVER_NONLOCAL (1), stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults
-# 7.56e7 Pa (a tenth of L1's 500-sphere cell) and 0.113; docs/gmh_unit_cells.md "Averaging the inelastic stress").
+# over_nonlocal: L5_OVER_NONLOCAL (0.15), stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults
+# 7.56e8 Pa and 0.113 (L1's 500-sphere cell); docs/gmh_unit_cells.md "Averaging the inelastic stress";
+# sessions 35-36 ran m = 1 with E/10 and E, and m = 0.25 with E).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}
@@ -56,9 +57,9 @@ done
   { echo "l5_biaxial.sh: L5_TOP_VELOCITY must be a speed in m/s (got '$L5_TOP_VELOCITY')" >&2; exit 2; }
 [[ -z "${L5_LOAD_STEPS:-}" || "$L5_LOAD_STEPS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "l5_biaxial.sh: L5_LOAD_STEPS must be a whole number >= 1 (got '$L5_LOAD_STEPS')" >&2; exit 2; }
-over_nonlocal=${L5_OVER_NONLOCAL:-1}
+over_nonlocal=${L5_OVER_NONLOCAL:-0.15}
 inelastic_radius=${L5_INELASTIC_RADIUS:-13.5e-3}
-stiffness_e=${L5_STIFFNESS_E:-7.56e7}
+stiffness_e=${L5_STIFFNESS_E:-7.56e8}
 stiffness_nu=${L5_STIFFNESS_NU:-0.113}
 for v in inelastic_radius over_nonlocal stiffness_e stiffness_nu; do
   [[ "${!v}" =~ $number ]] || { echo "l5_biaxial.sh: L5_${v^^} must be a number >= 0 (got '${!v}')" >&2; exit 2; }
