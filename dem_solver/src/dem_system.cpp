@@ -698,7 +698,10 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
   // drive servo walls), energy lost and work do not depend on the thread count.
   const std::size_t chunks = chunkCount();
   gatherPartials_.resize(chunks);
-  for (auto& m : meshes) m.contacts.clear();
+  for (auto& m : meshes) {
+    externalWork += m.workBeforeEvaluation();
+    m.contacts.clear();
+  }
   // Mesh contacts of each particle, compacted into the groups' lists afterwards.
   MeshGather meshOut;
   if (nm > 0) {
@@ -827,6 +830,7 @@ void DemSystem::gatherLoop(const Normal& normalLaw, const Tangential& tangential
     for (std::size_t i = 0; i < n; ++i)
       for (std::size_t c = 0; c < meshOut.count[i * nm + g]; ++c)
         meshes[g].contacts.push_back(meshOut.contacts[g][i * TriangleWallGroup::kSlots + c]);
+  for (auto& m : meshes) externalWork += m.workAfterEvaluation();
 }
 
 void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double dt, GatherPartial& local,
@@ -902,17 +906,15 @@ void DemSystem::addMeshContacts(std::size_t i, std::size_t g, double w, double d
     const double wgt = kept.size() == 1 ? 1.0 : (sumF > 0.0 ? norm(fc[c]) / sumF : 0.0);
     const Vec3 fw = (w * wgt) * fc[c];
     const Vec3 ci = wallContactArm(ri, kept[c].overlap, kept[c].normal);
-    const auto& tri = m.triangles[kept[c].triangle];
-    const Vec3 vw = kept[c].bary[0] * m.velocities[tri[0]] + kept[c].bary[1] * m.velocities[tri[1]] +
-                    kept[c].bary[2] * m.velocities[tri[2]];
+    // The wall's work on the particle: TriangleWallGroup::workAfterEvaluation.
     sums.dissipated += w * wgt * lostc[c];
-    sums.work += dot(fw, vw) * dt;
     f += fw;
     t += cross(ci, fw);
     local.meshForce[g] -= fw;
     local.meshTorque[g] -= cross(kept[c].point, fw);
+    const double elastic = w * wgt * law_->energy(kept[c].overlap, ri, pm, slots[c].shear);
     out.contacts[g][i * TriangleWallGroup::kSlots + c] = {static_cast<std::uint32_t>(i), kept[c].triangle,
-                                                     kept[c].bary, -fw};
+                                                     kept[c].bary, -fw, elastic};
   }
   out.count[i * meshes.size() + g] = static_cast<std::uint8_t>(kept.size());
 }

@@ -109,8 +109,15 @@ std::vector<pid_t> processesMentioning(const std::string& needle) {
     std::ifstream status(entry.path() / "stat");
     std::string pidText, comm, state;
     if (!(status >> pidText >> comm >> state) || state == "Z") continue;
-    std::ifstream cmd(entry.path() / "cmdline");
-    std::string line((std::istreambuf_iterator<char>(cmd)), std::istreambuf_iterator<char>());
+    // A process may exit between the two reads (another test's, under
+    // ctest -j): libstdc++ then throws "No such process" from the read.
+    std::string line;
+    try {
+      std::ifstream cmd(entry.path() / "cmdline");
+      line.assign(std::istreambuf_iterator<char>(cmd), std::istreambuf_iterator<char>());
+    } catch (const std::ios_base::failure&) {
+      continue;
+    }
     for (auto& c : line)
       if (c == '\0') c = ' ';
     if (line.find(needle) != std::string::npos) pids.push_back(std::stoi(name));

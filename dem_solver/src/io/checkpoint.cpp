@@ -15,7 +15,7 @@ namespace cosim::dem {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'S', 'I', 'M', 'D', 'E', 'M'};
-constexpr std::uint32_t kVersion = 8;  // 7: driveWork; 8: excludedPairs
+constexpr std::uint32_t kVersion = 9;  // 7: driveWork; 8: excludedPairs; 9: mesh contacts
 
 // pod and vec as util::BinaryWriter; strings and the final check added.
 class Writer : public util::BinaryWriter {
@@ -165,6 +165,8 @@ void checkRestored(const DemSystem& s, const std::string& path) {
       for (const auto& slot : slots)
         require(slot.triangle >= -1 && slot.triangle < static_cast<std::int64_t>(m.triangles.size()), path,
                 who + "contact history triangle out of range");
+    for (const TriangleContact& c : m.contacts)
+      require(c.particle < n && c.triangle < m.triangles.size(), path, who + "contact out of range");
   }
 }
 
@@ -233,6 +235,7 @@ std::uint64_t writeCheckpoint(const DemSystem& s, std::ostream& out, const std::
     w.pod(m.material);
     w.vec(m.vertices); w.vec(m.velocities); w.vec(m.triangles); w.vec(m.candStart); w.vec(m.candTri);
     w.vec(m.history); w.vec(m.verticesAtBuild()); w.pod(m.force); w.pod(m.torque);
+    w.vec(m.contacts);  // the next step's wall work charges their forces (TriangleWallGroup::workBeforeEvaluation)
   }
   return w.finish();
 }
@@ -311,6 +314,8 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
     r.vec(ref);
     m.setVerticesAtBuild(std::move(ref));
     m.force = r.pod<Vec3>(); m.torque = r.pod<Vec3>();
+    r.vec(m.contacts);
+    m.markEvaluated();  // written after a step: the contacts are those of these vertices
   }
   checkRestored(s, path);
   s.neighbors.indexPairs(s.particles.size());  // pairRow is not stored

@@ -29,6 +29,9 @@ Energies energies(const DemSystem& s) {
         e.elastic += p.weight[i] * law.energy(overlap, p.radius[i], s.materials.pair(p.material[i], s.planes[w].material),
                                               s.planeShear[w][i]);
     }
+  // Triangle-mesh contacts of the last evaluation (a coupled FE surface).
+  for (const TriangleWallGroup& m : s.meshes)
+    for (const TriangleContact& c : m.contacts) e.elastic += c.elastic;
   e.elastic += s.bonds.energy(p, s.cell);
   e.dissipated = s.dissipated;
   e.externalWork = s.externalWork;

@@ -28,6 +28,7 @@ struct TriangleContact {
   std::uint32_t triangle = 0;
   std::array<double, 3> bary{};  // contact point on the triangle
   Vec3 force;                    // force on the wall (minus the force on the particle)
+  double elastic = 0.0;          // its springs' energy, weighted as its force (Modification 2) [J]
 };
 
 class TriangleWallGroup {
@@ -48,6 +49,21 @@ class TriangleWallGroup {
   const std::vector<Vec3>& verticesAtBuild() const { return verticesRef_; }
   void setVerticesAtBuild(std::vector<Vec3> v) { verticesRef_ = std::move(v); }
 
+  /// Work of the wall on the particles since the last force evaluation,
+  /// one trapezoid as for a driven particle (DemSystem::drivenWorkSinceEvaluation):
+  /// every contact point moved by sum_v b_v (x_v - x_v at the last evaluation),
+  /// charged half the contact forces before (workBeforeEvaluation, while
+  /// `contacts` still holds them) and half those after (workAfterEvaluation).
+  /// Exact for a linear spring. The move covers both DEM's own motion of the
+  /// vertices (v dt per step) and the jump when a coupled FE surface sets
+  /// them each exchange, which f_end . v dt missed (scene C1 at c = 0: DEM's
+  /// balance 94 J off over the run, every stored energy below 2 J; docs/dem.md,
+  /// "Work and energy of triangle walls").
+  double workBeforeEvaluation();
+  double workAfterEvaluation();
+  /// Positions at the last force evaluation (a checkpoint is written after one).
+  void markEvaluated() { verticesAtEval_ = vertices; }
+
   // Per particle: candidate triangles (CSR, rebuilt with the neighbour list),
   // and slots holding the tangential history of the current contacts.
   std::vector<std::uint32_t> candStart, candTri;
@@ -60,7 +76,10 @@ class TriangleWallGroup {
   Vec3 force, torque;                     // total on the group (torque about the origin)
 
  private:
+  /// sum over the contacts of (-force) . (the move at the contact point).
+  double contactWork() const;
   std::vector<Vec3> verticesRef_;
+  std::vector<Vec3> verticesAtEval_, moved_;
 };
 
 }  // namespace cosim::dem
