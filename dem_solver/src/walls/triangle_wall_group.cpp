@@ -72,31 +72,23 @@ bool TriangleWallGroup::movedBeyond(double limit) const {
   return false;
 }
 
-double TriangleWallGroup::workBeforeEvaluation() {
-  moved_.clear();
-  // A new surface, or one of another size, has no contacts to charge.
-  if (verticesAtEval_.size() == vertices.size()) {
-    moved_.resize(vertices.size());
-    for (std::size_t v = 0; v < vertices.size(); ++v) moved_[v] = vertices[v] - verticesAtEval_[v];
-  }
-  return 0.5 * contactWork();
-}
+double TriangleWallGroup::workBeforeEvaluation() const { return 0.5 * contactWork(); }
 
 double TriangleWallGroup::workAfterEvaluation() {
   const double work = 0.5 * contactWork();
   verticesAtEval_ = vertices;
-  moved_.clear();
   return work;
 }
 
 double TriangleWallGroup::contactWork() const {
-  if (moved_.empty()) return 0.0;
+  // A new surface, or one of another size, has no contacts to charge.
+  if (verticesAtEval_.size() != vertices.size()) return 0.0;
+  auto moved = [&](std::uint32_t v) { return vertices[v] - verticesAtEval_[v]; };
   double work = 0.0;
   for (const TriangleContact& c : contacts) {
-    if (c.triangle >= triangles.size()) continue;
-    const auto& tri = triangles[c.triangle];
-    if (tri[0] >= moved_.size() || tri[1] >= moved_.size() || tri[2] >= moved_.size()) continue;
-    const Vec3 d = c.bary[0] * moved_[tri[0]] + c.bary[1] * moved_[tri[1]] + c.bary[2] * moved_[tri[2]];
+    if (c.triangle >= triangles.size()) continue;  // of a surface since replaced
+    const auto& tri = triangles[c.triangle];        // validate(): its vertices exist
+    const Vec3 d = c.bary[0] * moved(tri[0]) + c.bary[1] * moved(tri[1]) + c.bary[2] * moved(tri[2]);
     work -= dot(c.force, d);  // c.force is the force on the wall; the particle feels -c.force
   }
   return work;

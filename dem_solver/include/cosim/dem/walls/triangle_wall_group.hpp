@@ -59,7 +59,7 @@ class TriangleWallGroup {
   /// them each exchange, which f_end . v dt missed (scene C1 at c = 0: DEM's
   /// balance 94 J off over the run, every stored energy below 2 J; docs/dem.md,
   /// "Work and energy of triangle walls").
-  double workBeforeEvaluation();
+  double workBeforeEvaluation() const;
   double workAfterEvaluation();
   /// Positions at the last force evaluation (a checkpoint is written after one).
   void markEvaluated() { verticesAtEval_ = vertices; }
@@ -79,7 +79,7 @@ class TriangleWallGroup {
   /// sum over the contacts of (-force) . (the move at the contact point).
   double contactWork() const;
   std::vector<Vec3> verticesRef_;
-  std::vector<Vec3> verticesAtEval_, moved_;
+  std::vector<Vec3> verticesAtEval_;
 };
 
 }  // namespace cosim::dem
