@@ -1,5 +1,8 @@
 #include "cosim/coupler/cli.hpp"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -16,6 +19,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: coupler run SCENE.yaml [--set KEY=VALUE ...] [--out DIR] [--resume] [--force] [--no-progress]\n"
+    "                              [--exchanges N]\n"
     "                  [--log-level LEVEL]\n"
     "       coupler check SCENE.yaml [--set KEY=VALUE ...] [--out DIR]\n"
     "       coupler sweep SCENE.yaml --set KEY=V1,V2,... [--set KEY2=A,B ...] [--out DIR] [--jobs N] [--force]\n"
@@ -39,12 +43,20 @@ constexpr const char* kUsage =
     "                 (output.checkpoint_interval); the scene must be unchanged\n"
     "  --force        run even if dt exceeds a solver's critical time step\n"
     "  --no-progress  no progress line on stderr\n"
+    "  --exchanges N  stop after N exchanges (0: start and set up every solver, then stop)\n"
     "  --log-level    debug, info, warn, error or quiet\n"
     "  --jobs N       sweep: runs at once (default 1)\n"
     "\n"
     "exit codes: 0 done, 1 coupler failure, 2 invalid scene or usage, 3 refused before time\n"
     "zero (handshake, capabilities, setup, stability), 4 a peer failed during the run,\n"
     "130 interrupted; sweep: 0 every run completed, 1 some did not, 2 usage, 130 interrupted\n";
+
+std::uint64_t parseExchangeCount(const std::string& text) {
+  const bool digits = !text.empty() && text.size() < 16 &&
+                      std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
+  if (!digits) throw std::invalid_argument("--exchanges: expected a whole number of exchanges (0 or more), got '" + text + "'");
+  return std::stoull(text);
+}
 
 int usageError(const std::string& message) {
   std::cerr << "coupler: " << message << "\n" << kUsage;
@@ -85,6 +97,7 @@ int couplerMain(int argc, char** argv) {
       else if (a == "--force") options.force = true;
       else if (a == "--resume") options.resume = true;
       else if (a == "--no-progress") options.progress = false;
+      else if (a == "--exchanges") options.stopAfter = parseExchangeCount(value());
       else if (a == "--log-level") log::setLevel(log::parseLevel(value()));
       else if (!a.empty() && a[0] == '-') return usageError("unknown option '" + a + "'");
       else if (scenePath.empty()) scenePath = a;

@@ -90,7 +90,8 @@ class CouplerRun final : public ExchangeDriver {
       report_.status = "running";
       scene_.schedule->run(*this);
       report_.loopS = monotonicSeconds() - loopStart;
-      finish("completed", "", kExitOk);
+      finish("completed", stoppedByOption() ? "stopped after " + std::to_string(completed_) + " exchanges (--exchanges)" : "",
+             kExitOk);
     } catch (const config::ConfigError& e) {
       finish("refused", e.what(), kExitBadConfig);
     } catch (const Refused& e) {
@@ -114,11 +115,17 @@ class CouplerRun final : public ExchangeDriver {
     return conclude();
   }
 
+  bool stoppedByOption() const {
+    return options_.stopAfter && completed_ >= *options_.stopAfter && completed_ < scene_.schedule->exchanges();
+  }
+
   // ExchangeDriver
   const std::vector<std::string>& solverNames() const override { return names_; }
   double time() const override { return time_; }
   std::uint64_t completedExchanges() const override { return completed_; }
-  bool stopRequested() const override { return scene_.reference && scene_.reference->finished(); }
+  bool stopRequested() const override {
+    return (options_.stopAfter && completed_ >= *options_.stopAfter) || (scene_.reference && scene_.reference->finished());
+  }
 
   void exchange(const std::map<std::string, AdvancePlan>& plans, double newTime) override {
     checkInterrupt();

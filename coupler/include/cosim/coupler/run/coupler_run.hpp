@@ -2,6 +2,8 @@
 // One coupled run from a validated scene: launch or attach the solvers,
 // check their hellos, set them up, let the schedule drive the exchanges, and
 // always end with peers shut down, no child left, output flushed, and a report.
+#include <cstdint>
+#include <optional>
 #include <ostream>
 #include <string>
 
@@ -24,6 +26,8 @@ struct RunOptions {
   bool force = false;     // run even when dt exceeds the critical step
   bool progress = true;
   bool resume = false;    // continue the run in the output dir from its last complete checkpoint
+  /// --exchanges N: stop after N exchanges (0: start and set up every solver, then stop)
+  std::optional<std::uint64_t> stopAfter;
 };
 
 int runScene(const Scene& scene, const RunOptions& options);

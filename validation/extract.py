@@ -1,0 +1,228 @@
+"""Where a validation figure's value is read (the `value` key of a figure).
+
+  run:exit_code | run:wall_s                 the run itself
+  report:figures.NAME | report:errors.NAME   run_report.json (errors by name)
+  report:KEY[.KEY...]                        any number in run_report.json
+  hdf5:FILE:DATASET:REDUCTION                  a dataset of FILE in the run directory, reduced by
+                                             max, min, absmax, last, first or mean
+  NAME:KEY, NAME@S:KEY                       a named extractor below (scene statistics computed
+                                             from the snapshots), its figure KEY; @S: the run was
+                                             loaded S times faster than the paper, so the paper's
+                                             time t is read at t / S
+
+An extractor is a function of the run directory that returns a dict of
+figures; it is registered in EXTRACTORS under the name the scene files use.
+"""
+import json
+import math
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "bench", "coupled"))
+
+
+class Missing(Exception):
+    """The value is not in the run's outputs (the run failed or stopped early)."""
+
+
+def _report(res):
+    path = os.path.join(res["out"], "run_report.json")
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        raise Missing("no run report (%s)" % e.__class__.__name__)
+
+
+def _from_report(res, key):
+    r = _report(res)
+    parts = key.split(".")
+    if parts[0] == "errors":
+        for e in r.get("errors", []):
+            if e["name"] == parts[1]:
+                return float(e["value"])
+        raise Missing("the run report has no error '%s' (status %s)" % (parts[1], r.get("status")))
+    node = r
+    for p in parts:
+        if not isinstance(node, dict) or p not in node:
+            raise Missing("the run report has no '%s' (status %s)" % (key, r.get("status")))
+        node = node[p]
+    return float(node)
+
+
+REDUCTIONS = {
+    "max": lambda a: float(a.max()),
+    "min": lambda a: float(a.min()),
+    "absmax": lambda a: float(abs(a).max()),
+    "first": lambda a: float(a.flat[0]),
+    "last": lambda a: float(a.flat[-1]),
+    "mean": lambda a: float(a.mean()),
+}
+
+
+def _from_h5(res, key):
+    import h5py
+    name, dataset, reduction = key.split(":")
+    path = os.path.join(res["out"], name)
+    try:
+        with h5py.File(path, "r") as f:
+            data = f[dataset][:]
+    except (OSError, KeyError) as e:
+        raise Missing("%s has no %s (%s)" % (name, dataset, e.__class__.__name__))
+    if data.size == 0:
+        raise Missing("%s:%s is empty" % (name, dataset))
+    return REDUCTIONS[reduction](data)
+
+
+_cache = {}
+
+
+def _from_extractor(res, source, key):
+    name, _, scale = source.partition("@")
+    if (source, res["out"]) not in _cache:
+        try:
+            _cache[(source, res["out"])] = EXTRACTORS[name](res["out"], float(scale or 1.0))
+        except (OSError, KeyError, ValueError, IndexError) as e:
+            raise Missing("extractor %s found no data (%s: %s)" % (name, e.__class__.__name__, e))
+    figures = _cache[(source, res["out"])]
+    if key not in figures:
+        raise Missing("extractor %s gave no %s (the run may have stopped before it)" % (name, key))
+    return figures[key]
+
+
+def value(where, res):
+    """The number `where` names in the outputs of run result `res` ({out, exit_code, wall_s})."""
+    source, _, key = where.partition(":")
+    if source == "run":
+        return float(res[key])
+    if source == "report":
+        v = _from_report(res, key)
+    elif source == "hdf5":
+        v = _from_h5(res, key)
+    else:
+        v = _from_extractor(res, source, key)
+    if not math.isfinite(v):
+        raise Missing("%s is not finite (%r)" % (where, v))
+    return v
+
+
+def check(where):
+    """The error message for a malformed `value`, or None."""
+    source, sep, key = where.partition(":")
+    if not sep or not key:
+        return "must be SOURCE:KEY (run, report, hdf5 or an extractor: %s)" % ", ".join(sorted(EXTRACTORS))
+    if source == "run" and key not in ("exit_code", "wall_s"):
+        return "run: takes exit_code or wall_s"
+    if source == "hdf5":
+        parts = key.split(":")
+        if len(parts) != 3 or parts[2] not in REDUCTIONS:
+            return "hdf5:FILE:DATASET:REDUCTION with REDUCTION one of %s" % ", ".join(REDUCTIONS)
+    name, at, scale = source.partition("@")
+    if at and not scale.replace(".", "", 1).isdigit():
+        return "the time scale after @ must be a positive number"
+    if source not in ("run", "report", "hdf5") and name not in EXTRACTORS:
+        return "unknown source '%s' (run, report, hdf5, %s)" % (source, ", ".join(sorted(EXTRACTORS)))
+    return None
+
+
+# --- named extractors: statistics of the H3-H5 snapshots (Hartmann 2022 Sec. 5) ---
+
+def _pd_snapshots(run):
+    from pd_scene_stats import snapshots
+    return snapshots(os.path.join(run, "pd.h5"))[1]
+
+
+def _at(snaps, t):
+    """The snapshot at run time t, or None when the run did not reach it (half an interval of slack)."""
+    times = [s[0] for s in snaps]
+    slack = 0.5 * (times[-1] - times[-2]) if len(times) > 1 else 1e-9
+    if t > times[-1] + slack:
+        return None
+    return min(snaps, key=lambda s: abs(s[0] - t))[2]
+
+
+def h3_figures(run, scale):
+    """Sec. 5.2, Figs. 10-11: Green-Lagrange E_zz and von Mises stress at paper time 12 s."""
+    import numpy as np
+    g = _at(_pd_snapshots(run), 12.0 / scale)
+    if g is None:
+        return {}
+    e = g["strain"][:]
+    vm = g["von_mises"][:]
+    return {"max_abs_Ezz": float(np.abs(e[:, 2]).max()), "max_von_mises_Pa": float(vm.max())}
+
+
+def h4_figures(run, scale):
+    """Sec. 5.3, Fig. 13: max |u_x| at 7.5, 17.5, 22.15 s and max u_z at 17.5 s, in cm."""
+    import numpy as np
+    snaps = _pd_snapshots(run)
+    out = {}
+    for t in (7.5, 17.5, 22.15):
+        g = _at(snaps, t / scale)
+        if g is not None:
+            u = g["displacement"][:]
+            out["max_abs_ux_cm_t%g" % t] = float(100 * np.abs(u[:, 0]).max())
+            if t == 17.5:
+                out["max_uz_cm_t17.5"] = float(100 * u[:, 2].max())
+    return out
+
+
+def h5_figures(run, scale):
+    """Sec. 5.4, Fig. 15: mean and max in-plane displacement of the PD particles at 1, 2, 3 s, in cm."""
+    import numpy as np
+    snaps = _pd_snapshots(run)
+    out = {}
+    for t in (1.0, 2.0, 3.0):
+        g = _at(snaps, t / scale)
+        if g is not None:
+            u = g["displacement"][:]
+            lat = np.hypot(u[:, 0], u[:, 1])
+            out["mean_inplane_cm_t%g" % t] = float(100 * lat.mean())
+            out["max_inplane_cm_t%g" % t] = float(100 * lat.max())
+    return out
+
+
+# --- scene C2 (Cheng 2022 Sec. 6.2): the Arlequin coupling's weighted series ---
+
+def c2_figures(run, scale):
+    """Dissipation over the paper's window and the weighted mass drift, from coupler.h5.
+
+    The paper's ratio (shared/reference/cheng2022/README.md) is (E(t1) - E(t2)) / E(t1) with
+    E the weighted DEM (kinetic + elastic) plus FEM (kinetic + strain) energy, t1 = 19.3 ms
+    (before the wave reaches the zone) and t2 = 60.8 ms (1P), the penalty's energy left out:
+    the coupling's series `energy` (increment form) is that sum.
+    """
+    import h5py
+    import numpy as np
+    with h5py.File(os.path.join(run, "coupler.h5"), "r") as f:
+        t = f["series/time"][:]
+        groups = [k for k in f["series"] if "mass" in f["series"][k] and "energy" in f["series"][k]]
+        if not groups:
+            return {}
+        g = f["series"][groups[0]]
+        e, m = g["energy"][:], g["mass"][:]
+    out = {"mass_drift": float(np.abs(m - m[0]).max() / abs(m[0]))}
+    for t1, t2 in ((0.0193, 0.0608),):
+        if t[-1] >= t2 / scale:
+            e1, e2 = np.interp(t1 / scale, t, e), np.interp(t2 / scale, t, e)
+            out["dissipation_%g_%g" % (1e3 * t1, 1e3 * t2)] = float((e1 - e2) / e1)
+    return out
+
+
+# --- scene L2 (Liu 2016 Sec. 3.2): GMH against the direct DEM test of the same cell ---
+
+def l2_figures(run, scale):
+    """RMS(GMH - DEM) over the peak, from bench/gmh/l2_compare (the direct test along the run's strain path)."""
+    import re
+    import subprocess
+    binaries = os.environ.get("COSIM_VALIDATION_BIN", os.path.join(ROOT, "build", "bin"))
+    out = subprocess.run([os.path.join(binaries, "l2_compare"), "--run", run], capture_output=True, text=True,
+                         timeout=3600)
+    m = re.search(r"^RMS\(GMH - DEM\) \S+ = \S+ kPa = (\S+) % of peak", out.stdout, re.M)
+    if not m:
+        raise ValueError("l2_compare printed no RMS line (exit %d: %s)" % (out.returncode, out.stderr.strip()[-200:]))
+    return {"rms_of_peak": float(m.group(1)) / 100.0}
+
+
+EXTRACTORS = {"l2": l2_figures, "c2": c2_figures, "h3": h3_figures, "h4": h4_figures, "h5": h5_figures}
