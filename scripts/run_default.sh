@@ -15,3 +15,7 @@ if [ "$scene" = configs/c1/cantilever_surface.yaml ]; then
   /usr/bin/python3 scripts/plot_c1.py runs/default || echo "(plotting needs python3-h5py and python3-matplotlib)"
 fi
 echo "output in runs/default: coupler.h5 (series), run_report.json, and each solver's own HDF5 + XDMF output"
+for x in runs/default/*.xmf; do
+  [ -e "$x" ] && echo "  ParaView: paraview $x   (File > Open; Apply, then play the time steps)"
+done
+true

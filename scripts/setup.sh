@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 packages=(build-essential cmake ninja-build pkg-config
           libeigen3-dev libzmq3-dev cppzmq-dev capnproto libcapnp-dev
           libhdf5-dev libyaml-cpp-dev libgtest-dev nlohmann-json3-dev libsuitesparse-dev libopenblas0-openmp
-          python3-numpy python3-h5py python3-matplotlib)
+          python3-numpy python3-h5py python3-matplotlib python3-yaml)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

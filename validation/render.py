@@ -39,12 +39,13 @@ def _scenes(rows):
 
 
 def summary_table(rows):
-    lines = ["| scene | figures reproduced | headline figure | ours | paper | status | wall [s] | run it |",
+    lines = ["| scene | figures reproduced | headline figure | ours | paper | status | wall [s] of its runs | run it |",
              "|---|---|---|---|---|---|---|---|"]
     for s in _scenes(rows):
         mine = [r for r in rows if r["scene"] == s]
         ran = [r for r in mine if r["status"] != "not-run"]
-        head = ran[0] if ran else mine[0]
+        heads = [r for r in mine if r.get("headline")]
+        head = heads[0] if heads else (ran[0] if ran else mine[0])
         walls = {}
         for r in mine:
             if r["wall_s"] is not None:

@@ -74,7 +74,7 @@ def _check_figure(path, i, fig, runs):
     if not isinstance(fig, dict):
         _fail(path, "figures[%d]" % i, "must be a map")
     unknown = set(fig) - {"figure", "run", "value", "unit", "paper", "source", "definition", "tolerance", "scale",
-                          "per", "note"}
+                          "per", "note", "headline"}
     if unknown:
         _fail(path, where + sorted(unknown)[0], "unknown key")
     for key in ("figure", "run", "unit", "source", "definition"):

@@ -94,9 +94,23 @@ def execute(run, binaries, out_dir, run_dirs):
     return {"exit_code": code, "wall_s": time.monotonic() - start, "log": log, "out": out_dir, "bin": binaries}
 
 
-def schedule_runs(scenes, tier, jobs, binaries, runs_root):
-    """Runs every run of the tier, references before the runs that read them."""
+def reused(out_dir, binaries):
+    """The result of an earlier run in out_dir (its run report), or None."""
+    try:
+        with open(os.path.join(out_dir, "run_report.json")) as f:
+            r = json.load(f)
+        return {"exit_code": int(r["exit_code"]), "wall_s": float(r["wall_s"]["total"]), "log": out_dir + ".log",
+                "out": out_dir, "bin": binaries}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def schedule_runs(scenes, tier, jobs, binaries, runs_root, reuse=False):
+    """Runs every run of the tier, references before the runs that read them.
+
+    reuse: a run whose directory holds a run report from an earlier call is read, not run again."""
     pending = {}
+    done = {}
     prepared = {}
     for sc in scenes:
         for name, run in sc["runs"].items():
@@ -104,8 +118,13 @@ def schedule_runs(scenes, tier, jobs, binaries, runs_root):
                 pending[(sc["scene"], name)] = run
                 if sc["scene"] not in prepared:
                     prepared[sc["scene"]] = prepare(sc, binaries, runs_root)
-    done = {}
     dirs = {key: os.path.join(runs_root, tier, key[0], key[1]) for key in pending}
+    if reuse:
+        for key in list(pending):
+            earlier = reused(dirs[key], binaries)
+            if earlier is not None:
+                done[key] = earlier
+                del pending[key]
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = {}
         while pending or futures:
@@ -168,6 +187,10 @@ def rows_for(sc, tier, results):
     rows = []
     for fig in sc["figures"]:
         run = sc["runs"][fig["run"]]
+        # the quick tier reports the figures of its runs; the other tiers all the others
+        reported = "quick" in run["tiers"] if tier == "quick" else (not run["tiers"] or set(run["tiers"]) - {"quick"})
+        if not reported:
+            continue
         tol = dict(fig["tolerance"])
         if isinstance(fig["paper"], (int, float)):
             tol.setdefault("paper", fig["paper"])
@@ -176,7 +199,7 @@ def rows_for(sc, tier, results):
                "config": run["config"] + "".join(" --set " + s for s in run["set"]),
                "conditions": "; ".join(run["conditions"]) or "the paper's",
                "note": fig.get("note", ""), "source": fig["source"], "definition": fig["definition"],
-               "tier": tier, "run": fig["run"]}
+               "tier": tier, "run": fig["run"], "headline": bool(fig.get("headline"))}
         res = results.get((sc["scene"], fig["run"]))
         if res is None:
             where = [t for t in TIERS if spec.runs_in(t, run["tiers"])]
@@ -234,6 +257,8 @@ def main(argv):
     ap.add_argument("--out", default=None, help="report directory (default validation/, quick: runs/validation/quick)")
     ap.add_argument("--runs", default=os.path.join(ROOT, "runs", "validation"), help="where the runs are written")
     ap.add_argument("--list", action="store_true", help="print the runs and figures of the tier; run nothing")
+    ap.add_argument("--reuse", action="store_true",
+                    help="read the runs that have a run report from an earlier call instead of running them again")
     ap.add_argument("--scenes", default=os.path.join(ROOT, "validation", "scenes"), dest="scene_dir", help="the scene files' directory")
     a = ap.parse_args(argv)
     try:
@@ -255,7 +280,7 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     start = time.monotonic()
     try:
-        results = schedule_runs(scenes, a.tier, a.jobs, os.path.abspath(a.bin), os.path.abspath(a.runs))
+        results = schedule_runs(scenes, a.tier, a.jobs, os.path.abspath(a.bin), os.path.abspath(a.runs), a.reuse)
     except spec.SceneError as e:
         print("validate: %s" % e, file=sys.stderr)
         return 2

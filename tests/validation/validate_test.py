@@ -27,11 +27,11 @@ runs:
   pair:
     config: configs/demo/two_mocks.yaml
     set: [schedule.end_time=0.01]
-    tiers: [quick]
+    tiers: [quick, standard]
     conditions: [a mock]
   later:
     config: configs/demo/two_mocks.yaml
-    tiers: [standard]
+    tiers: [full]
 figures:
   - figure: exchanges
     run: pair
@@ -49,7 +49,7 @@ figures:
     source: the runner
     definition: the exit code.
     tolerance: {abs: 0}
-  - figure: standard only
+  - figure: full only
     run: later
     value: run:exit_code
     unit: "-"
@@ -60,13 +60,13 @@ figures:
 """
 
 
-def run_validate(scene_text, work):
+def run_validate(scene_text, work, tier="standard"):
     scenes = os.path.join(work, "scenes")
     os.makedirs(scenes, exist_ok=True)
     with open(os.path.join(scenes, "c1.yaml"), "w") as f:
         f.write(scene_text)
     out = os.path.join(work, "report")
-    p = subprocess.run([sys.executable, os.path.join(ROOT, "validation", "validate.py"), "--tier", "quick",
+    p = subprocess.run([sys.executable, os.path.join(ROOT, "validation", "validate.py"), "--tier", tier,
                         "--bin", BIN, "--scenes", scenes, "--out", out, "--runs", os.path.join(work, "runs")],
                        capture_output=True, text=True, timeout=120)
     rows = None
@@ -82,15 +82,18 @@ class ValidateRunner(unittest.TestCase):
             p, rows = run_validate(SCENE.replace("TOL", "0"), work)
             self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
             status = {r["figure"]: r["status"] for r in rows}
-            self.assertEqual(status, {"exchanges": "reproduced", "exit code": "reproduced",
-                                      "standard only": "not-run"})
+            self.assertEqual(status, {"exchanges": "reproduced", "exit code": "reproduced", "full only": "not-run"})
             keys = {"scene", "figure", "unit", "paper", "ours", "tolerance", "status", "wall_s", "config",
                     "conditions", "note"}
             for r in rows:
                 self.assertTrue(keys <= set(r), r)
             self.assertEqual(rows[0]["ours"], 10)
-            self.assertIn("in the standard and full tiers", rows[2]["note"])
+            self.assertIn("run later is in the full tier", rows[2]["note"])
             self.assertTrue(os.path.exists(os.path.join(work, "report", "report.md")))
+            # the quick tier reports the figures of its own runs only
+            p, rows = run_validate(SCENE.replace("TOL", "0"), os.path.join(work, "q"), tier="quick")
+            self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+            self.assertEqual([r["figure"] for r in rows], ["exchanges", "exit code"])
 
     def test_a_figure_outside_its_tolerance_fails_the_run(self):
         # 10 exchanges against a paper value of 10 with the tolerance moved off it
@@ -105,7 +108,7 @@ class ValidateRunner(unittest.TestCase):
             p, _ = run_validate(SCENE.replace("TOL", "0").replace("value: report:exchanges", "value: nowhere"), work)
             self.assertEqual(p.returncode, 2)
             self.assertIn("c1.yaml: figures[0].value:", p.stderr)
-            p, _ = run_validate(SCENE.replace("TOL", "0").replace("tiers: [quick]", "tiers: [fast]"), work)
+            p, _ = run_validate(SCENE.replace("TOL", "0").replace("tiers: [quick, standard]", "tiers: [fast]"), work)
             self.assertEqual(p.returncode, 2)
             self.assertIn("runs.pair.tiers: unknown tier 'fast'", p.stderr)
 
