@@ -10,9 +10,11 @@
 // system and stops the run when the coupling diverges.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <ostream>
 #include <sstream>
+#include <vector>
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/analysis/run_report.hpp"
@@ -22,6 +24,7 @@
 #include "cosim/coupler/mapping/cg_kernel.hpp"
 #include "cosim/coupler/mapping/homogenisation.hpp"
 #include "cosim/io/h5_file.hpp"
+#include "cosim/util/binary_record.hpp"
 #include "cosim/util/weight_profile.hpp"
 #include "cosim/wire/arrays.hpp"
 
@@ -109,6 +112,32 @@ class ArlequinCoupling final : public Coupling {
     tighten(criticalDt[dem_], frequencies_.particles);
   }
 
+  /// The penalty forces of an exchange depend on the exchanges before it
+  /// (the increments of Cheng Sec. 5.2.3, the time-centred prediction, the
+  /// energy guard's first value): a checkpoint keeps that history as it was
+  /// before its own exchange, which the resume replays.
+  bool keepsState() const override { return true; }
+  void save(util::BinaryWriter& out) const override {
+    out.pod(beforeLast_.lastTime);
+    out.pod(beforeLast_.referenceEnergy);
+    for (const auto* m : {&beforeLast_.particles, &beforeLast_.nodes, &beforeLast_.vParticles, &beforeLast_.vNodes}) {
+      out.pod(static_cast<std::uint64_t>(m->rows()));
+      out.vec(std::vector<double>(m->data(), m->data() + m->size()));
+    }
+  }
+  void restore(util::BinaryReader& in) override {
+    History h;
+    h.lastTime = in.pod<double>("arlequin: time of the last exchange");
+    h.referenceEnergy = in.pod<double>("arlequin: first energy");
+    for (auto* m : {&h.particles, &h.nodes, &h.vParticles, &h.vNodes}) {
+      const auto rows = in.pod<std::uint64_t>("arlequin: history rows");
+      const auto values = in.vec<double>("arlequin: history");
+      if (values.size() != 3 * rows) in.fail("arlequin: history", "not 3 values per row");
+      *m = Eigen::Map<const Eigen::MatrixX3d>(values.data(), static_cast<Eigen::Index>(rows), 3);
+    }
+    apply(h);
+  }
+
   void conclude(RunReport& report) const override {
     report.figures["penalty_omega_nodes_rad_s"] = frequencies_.nodes;
     report.figures["penalty_omega_particles_rad_s"] = frequencies_.particles;
@@ -117,6 +146,9 @@ class ArlequinCoupling final : public Coupling {
   void exchange(ExchangeContext& ctx) override {
     const auto d = ctx.outputs.find(dem_), f = ctx.outputs.find(fem_);
     if (d == ctx.outputs.end() || f == ctx.outputs.end()) return;
+    // A resumed run replays the checkpoint's exchange from the history it had
+    // before that exchange (restore()), so it stages the same forces again.
+    if (!ctx.replay) beforeLast_ = history();
     const proto::ParticleStates::Reader particles = particleZone(d->second, zone_, ctx.exchange);
     if (!penalty_) build(particles, f->second, ctx.exchange);
     const double dt = ctx.exchange > 0 ? ctx.time - lastTime_ : 0.0;
@@ -345,7 +377,26 @@ class ArlequinCoupling final : public Coupling {
     ctx.series->append(p + "momentum", std::span<const double>(momentum.data(), 3));
   }
 
+  /// What the next exchange reads of the earlier ones.
+  struct History {
+    double lastTime = 0.0, referenceEnergy = 0.0;
+    Eigen::MatrixX3d particles, nodes, vParticles, vNodes;
+  };
+  History history() const {
+    return {lastTime_, referenceEnergy_, previousParticles_, previousNodes_, previousVp_, previousVn_};
+  }
+  void apply(const History& h) {
+    beforeLast_ = h;
+    lastTime_ = h.lastTime;
+    referenceEnergy_ = h.referenceEnergy;
+    previousParticles_ = h.particles;
+    previousNodes_ = h.nodes;
+    previousVp_ = h.vParticles;
+    previousVn_ = h.vNodes;
+  }
+
   std::string dem_, fem_, zone_, systemDem_, systemFem_;
+  History beforeLast_;
   util::WeightProfile profile_;
   double epsilon_ = 0.0, width_ = 0.0, maxGrowth_ = 100.0, referenceEnergy_ = 0.0, lastTime_ = 0.0;
   bool increments_ = false;
