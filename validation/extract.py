@@ -153,34 +153,37 @@ def h3_figures(run, scale):
     return {"max_abs_Ezz": float(np.abs(e[:, 2]).max()), "max_von_mises_Pa": float(vm.max())}
 
 
+def _displacements_at(run, scale, times, figures_of):
+    """figures_of(t, u) for the PD displacements u [m] at each paper time t the run reached."""
+    snaps = _pd_snapshots(run)
+    out = {}
+    for t in times:
+        g = _at(snaps, t / scale)
+        if g is not None:
+            out.update(figures_of(t, g["displacement"][:]))
+    return out
+
+
 def h4_figures(run, scale):
     """Sec. 5.3, Fig. 13: max |u_x| at 7.5, 17.5, 22.15 s and max u_z at 17.5 s, in cm."""
     import numpy as np
-    snaps = _pd_snapshots(run)
-    out = {}
-    for t in (7.5, 17.5, 22.15):
-        g = _at(snaps, t / scale)
-        if g is not None:
-            u = g["displacement"][:]
-            out["max_abs_ux_cm_t%g" % t] = float(100 * np.abs(u[:, 0]).max())
-            if t == 17.5:
-                out["max_uz_cm_t17.5"] = float(100 * u[:, 2].max())
-    return out
+
+    def at(t, u):
+        out = {"max_abs_ux_cm_t%g" % t: float(100 * np.abs(u[:, 0]).max())}
+        if t == 17.5:
+            out["max_uz_cm_t17.5"] = float(100 * u[:, 2].max())
+        return out
+    return _displacements_at(run, scale, (7.5, 17.5, 22.15), at)
 
 
 def h5_figures(run, scale):
     """Sec. 5.4, Fig. 15: mean and max in-plane displacement of the PD particles at 1, 2, 3 s, in cm."""
     import numpy as np
-    snaps = _pd_snapshots(run)
-    out = {}
-    for t in (1.0, 2.0, 3.0):
-        g = _at(snaps, t / scale)
-        if g is not None:
-            u = g["displacement"][:]
-            lat = np.hypot(u[:, 0], u[:, 1])
-            out["mean_inplane_cm_t%g" % t] = float(100 * lat.mean())
-            out["max_inplane_cm_t%g" % t] = float(100 * lat.max())
-    return out
+
+    def at(t, u):
+        lat = np.hypot(u[:, 0], u[:, 1])
+        return {"mean_inplane_cm_t%g" % t: float(100 * lat.mean()), "max_inplane_cm_t%g" % t: float(100 * lat.max())}
+    return _displacements_at(run, scale, (1.0, 2.0, 3.0), at)
 
 
 # --- scene C2 (Cheng 2022 Sec. 6.2): the Arlequin coupling's weighted series ---

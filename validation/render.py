@@ -112,6 +112,8 @@ def figures(scenes, rows, results, directory):
                 ax.annotate("%s %s" % (_num(r["ours"]), r["unit"]), (ratio, i), textcoords="offset points",
                             xytext=(6, 3), fontsize=7)
             ax.axvline(1.0, color="k", lw=0.8)
+            ratios = [r["ours"] / r["paper"] for r in mine]
+            ax.set_xlim(min(0.0, min(ratios)) - 0.05, max(2.0, 1.5 * max(ratios)))
             ax.set_yticks(range(len(mine)))
             ax.set_yticklabels([r["figure"] for r in mine], fontsize=7)
             ax.set_xscale("symlog", linthresh=0.1)
@@ -171,7 +173,8 @@ def docs(rows, files):
                 body = summary_table(rows)
             else:
                 mine = [r for r in rows if r["scene"] in ids]
-                body = scene_table(mine, with_notes=False) if mine else "(no rows for %s in the report)" % ", ".join(ids)
+                body = (scene_table(mine, with_notes=False) if mine
+                        else "(no rows for %s in the report)" % ", ".join(ids))
             return m.group(1) + body + "\n" + m.group(4)
 
         new = MARKER.sub(fill, text)

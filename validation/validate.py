@@ -259,7 +259,8 @@ def main(argv):
     ap.add_argument("--list", action="store_true", help="print the runs and figures of the tier; run nothing")
     ap.add_argument("--reuse", action="store_true",
                     help="read the runs that have a run report from an earlier call instead of running them again")
-    ap.add_argument("--scenes", default=os.path.join(ROOT, "validation", "scenes"), dest="scene_dir", help="the scene files' directory")
+    ap.add_argument("--scenes", default=os.path.join(ROOT, "validation", "scenes"), dest="scene_dir",
+                    help="the scene files' directory")
     a = ap.parse_args(argv)
     try:
         scenes = spec.load_all(a.scene_dir, a.scenes)

@@ -25,14 +25,13 @@
 # there, failed), L5_TOP_VELOCITY the top's speed [m/s] (the scene's 0.1; the
 # specimen starts in the matching homogeneous compression, v_y = -V y / H), and
 # L5_LOAD_STEPS the DEM steps over which each increment is applied (the scene's 5;
-# sessions before 33 ran 0.4 m/s with 20, docs/gmh_unit_cells.md "Quasi-static loading"),
+# docs/gmh_unit_cells.md "Quasi-static loading"),
 # and L5_HOURGLASS the one-point elements' hourglass coefficient kappa (the scene's 0.005;
-# sessions before 34 ran 0.05, docs/gmh_unit_cells.md "The hourglass stiffness").
+# fem_solver's default 0.05 is stiffer than the cells past their plateau, docs/gmh_unit_cells.md).
 # Mode "inelastic" averages the cells' inelastic stress instead of the strain increments
 # (nonlocal: {radius: L5_INELASTIC_RADIUS (13.5e-3: h <= R/2 on every mesh), averages: inelastic_stress,
 # over_nonlocal: L5_OVER_NONLOCAL (0.15), stiffness: {E: L5_STIFFNESS_E, nu: L5_STIFFNESS_NU}}, defaults
-# 7.56e8 Pa and 0.113 (L1's 500-sphere cell); docs/gmh_unit_cells.md "Averaging the inelastic stress";
-# sessions 35-36 ran m = 1 with E/10 and E, and m = 0.25 with E).
+# 7.56e8 Pa and 0.113 (L1's 500-sphere cell); docs/gmh_unit_cells.md).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 bin=${COSIM_BIN:-$root/build/bin}

@@ -299,10 +299,9 @@ void checkResume(const std::string& analysis, const std::string& kind, const std
 
 // A PD-DEM run resumed from a checkpoint continues bit for bit: DEM's
 // checkpoint says which of its particles are PD's hybrids, so the set PD
-// sends again drives them (before session 23 DEM added them a second time
-// and the restored copies drifted on with their last velocities). The Hertz
-// analysis continues from its checkpointed state (before session 26 it
-// started afresh at the resume and failed for want of PD's setup outputs).
+// sends again drives them instead of being added a second time. The Hertz
+// analysis continues from its checkpointed state (started afresh at the
+// resume, it would lack PD's setup outputs).
 TEST(PdDemContactRun, AResumedRunContinuesBitForBit) {
   checkResume("", "hertz-indentation", "/series/analysis/depth_force_pd_hertz");
 }

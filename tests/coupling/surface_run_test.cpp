@@ -39,7 +39,7 @@ TEST(SurfaceCouplingRun, ParticlesRestOnTheBeamAndTheMapBalancesTheContactForces
   // 30 coarse steps (19 ms): the particles barely move from the reference path.
   EXPECT_LT(report["errors"][0]["value"].get<double>(), 1e-4);
   // Kinetic 2 x 0.5 x 83.78 x 0.1^2 = 0.838 J plus the two contact springs
-  // 2 x (m g)^2 / (2 k_n) = 0.034 J (counted since session 38): 0.872 J at t = 0.
+  // 2 x (m g)^2 / (2 k_n) = 0.034 J: 0.872 J at t = 0.
   EXPECT_GT(report["figures"]["max_total_energy_J"].get<double>(), 0.87);
   EXPECT_LT(report["figures"]["max_total_energy_J"].get<double>(), 0.94);
 
@@ -58,8 +58,8 @@ TEST(SurfaceCouplingRun, ParticlesRestOnTheBeamAndTheMapBalancesTheContactForces
 
 // Resumed from its earlier checkpoint, the run reports the uninterrupted
 // run's error and figures: the reference keeps its time integral, start
-// positions and drifts in the checkpoint (before session 26 it restarted at
-// the resume, measuring drift from the resumed positions).
+// positions and drifts in the checkpoint, so drift is measured from the
+// run's start, not from the resumed positions.
 TEST(SurfaceCouplingRun, AResumedRunReportsTheUninterruptedRunsError) {
   C1Run c1;
   const auto done = c1.run({"--set", "output.checkpoint_interval=10"});

@@ -80,9 +80,9 @@ std::size_t drivenSphereOnFloor(DemSystem& s, const std::string& tangential, con
 // before every step, pressed into a fixed wall by a linear spring: the work of
 // its prescribed motion must equal the elastic energy it stores. The jumps are
 // counted in one trapezoid per step with the move the step's drift adds, exact
-// for a linear force. Charged the force before each jump alone (the count
-// before session 20), 250 jumps of up to 1 mm against k = 1e5 N/m left the
-// balance 0.73 J off, against at most 0.11 J stored.
+// for a linear force. Charging the force before each jump alone would leave
+// the balance of 250 jumps of up to 1 mm against k = 1e5 N/m off by several
+// times the energy stored (at most 0.11 J).
 TEST(DemEnergy, WorkOfADrivenParticleSetFromOutsideBalancesItsContactEnergy) {
   DemSystem s;
   const std::size_t i = drivenSphereOnFloor(s, "none", glass(), 0.009);
@@ -126,7 +126,7 @@ TEST(DemEnergy, TangentialJumpsOfADrivenParticleGoIntoItsFrictionSpring) {
                 friction, stored, e.dissipated, e.externalWork, e.balance() - b0);
     if (friction > 1.0) {
       // Without the jumps in the history, and with the spring's work charged at
-      // the step's end, this was 3.6e-4 J off (1.8e-4 J each).
+      // the step's end, the balance would be off by most of the stored energy.
       EXPECT_GT(stored, 5e-4);  // 1/2 k_t A^2 = 5.7e-4 J
       EXPECT_NEAR(e.dissipated, 0.0, 1e-15);
       EXPECT_NEAR(e.balance(), b0, 1e-15);

@@ -293,10 +293,10 @@ double wallSetFromOutsideBalanceError(bool sendVelocities) {
 }
 
 TEST(DemTriangleWalls, AWallSetFromOutsideDoesTheWorkOfItsJumps) {
-  // Before session 38 the wall's work was f_end . v_wall dt alone, which
-  // misses every jump (with no velocities sent, all of the wall's work), and
-  // the contact springs of triangle walls were left out of the elastic
-  // energy (1.5 % of the largest work here). The trapezoid is exact for a
+  // The wall's work f_end . v_wall dt alone would miss every jump (with no
+  // velocities sent, all of the wall's work), and the contact springs of
+  // triangle walls count in the elastic energy (1.5 % of the largest work
+  // here). The trapezoid is exact for a
   // linear spring: the balance closes to round-off (2e-13 J of 1e-6 J).
   EXPECT_LT(wallSetFromOutsideBalanceError(false), 1e-6);
   EXPECT_LT(wallSetFromOutsideBalanceError(true), 1e-6);

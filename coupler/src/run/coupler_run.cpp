@@ -208,8 +208,8 @@ class CouplerRun final : public ExchangeDriver {
       throw Refused("cannot resume: " + scene_.file + " differs from the scene the run in " + runDir_.string() +
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
     // A reference solution continues from what it had gathered up to the
-    // checkpoint; without that state (a checkpoint of a coupler before
-    // session 26) it would see only the exchanges after the resume.
+    // checkpoint; without that state (no analysis state in the checkpoint) it
+    // would see only the exchanges after the resume, so the resume is refused.
     if (scene_.reference && !fs::exists(CheckpointStore::analysisState(resumeFrom_->dir)))
       throw Refused("cannot resume: " + resumeFrom_->dir.string() + " holds no state of the analysis '" +
                     scene_.reference->kind() + "' (" + CheckpointStore::analysisState(resumeFrom_->dir).filename().string() +
@@ -288,9 +288,9 @@ class CouplerRun final : public ExchangeDriver {
     if (!out) throw std::runtime_error(file.string() + ": cannot write the couplings' state");
   }
 
-  /// The couplings continue their counts from the checkpoint. A checkpoint of
-  /// a coupler before session 28 has none: the run goes on (the counts are
-  /// report figures, not physics), and the report says they start at the resume.
+  /// The couplings continue their counts from the checkpoint. A checkpoint
+  /// without the couplings' state still resumes (the counts are report
+  /// figures, not physics), and the report says they start at the resume.
   void restoreCouplings(const fs::path& file) {
     if (!keepsCouplingState()) return;
     if (!fs::exists(file)) {
@@ -363,8 +363,8 @@ class CouplerRun final : public ExchangeDriver {
     std::vector<std::string> environment;
     // Solvers share the cores with each other and with the coupler, and wait
     // for each other every exchange: OpenMP threads that spin while idle
-    // steal the core a peer needs (measured: a 2 x 30 x 2 implicit FEM step
-    // took 38 ms with spinning threads beside a DEM process, 14 ms without).
+    // steal the core a peer needs, and the peer's step then takes several
+    // times longer.
     if (!std::getenv("OMP_WAIT_POLICY")) environment.emplace_back("OMP_WAIT_POLICY=PASSIVE");
     if (scene_.transport.curve) {
       curve = wire::CurveKeyPair::generate();

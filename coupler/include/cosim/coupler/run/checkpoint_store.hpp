@@ -21,8 +21,8 @@ class CheckpointStore {
     std::uint64_t exchange = 0;
     double time = 0.0;
     std::filesystem::path dir;
-    // Rows of each /series dataset at the checkpoint (absent in checkpoints
-    // written before session 18: every series then has one row per record).
+    // Rows of each /series dataset at the checkpoint (absent where the
+    // checkpoint does not record them: every series then has one row per record).
     std::optional<std::map<std::string, std::size_t>> seriesRows;
   };
 
