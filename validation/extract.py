@@ -1,6 +1,6 @@
 """Where a validation figure's value is read (the `value` key of a figure).
 
-  run:exit_code | run:wall_s                 the run itself
+  run:exit_code | run:wall_s                 the run itself (a `tool` run's output is output.txt)
   report:figures.NAME | report:errors.NAME   run_report.json (errors by name)
   report:KEY[.KEY...]                        any number in run_report.json
   hdf5:FILE:DATASET:REDUCTION                  a dataset of FILE in the run directory, reduced by
@@ -229,4 +229,23 @@ def l2_figures(run, scale):
     return {"rms_of_peak": float(m.group(1)) / 100.0}
 
 
-EXTRACTORS = {"l2": l2_figures, "c2": c2_figures, "h3": h3_figures, "h4": h4_figures, "h5": h5_figures}
+# --- scene L1 (Liu 2016 Sec. 3.1, Table II): the cell's elastic constants ---
+
+def l1_figures(run, scale):
+    """E, nu, K, G [MPa] from bench/gmh/l1_elastic_constants' output (K isotropic, G shear)."""
+    import re
+    with open(os.path.join(run, "output.txt")) as f:
+        text = f.read()
+    m = re.search(r"^this cell: K isotropic, G shear\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)", text, re.M)
+    if not m:
+        raise ValueError("l1_elastic_constants printed no constants")
+    e, nu, k, g = (float(v) for v in m.groups())
+    out = {"E_MPa": e, "nu": nu, "K_MPa": k, "G_MPa": g}
+    # the same moduli from the constrained-compression probes (an isotropic cell gives the same)
+    m = re.search(r"^this cell: constrained compression\s+(\S+)\s+(\S+)", text, re.M)
+    if m:
+        out["K_constrained_MPa"], out["G_constrained_MPa"] = float(m.group(1)), float(m.group(2))
+    return out
+
+
+EXTRACTORS = {"l1": l1_figures, "l2": l2_figures, "c2": c2_figures, "h3": h3_figures, "h4": h4_figures, "h5": h5_figures}

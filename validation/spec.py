@@ -13,6 +13,8 @@ import extract
 SCENE_ORDER = ["C1", "C2a", "C2b", "H1", "H2", "H3", "H4", "H5", "L1", "L2", "L3", "L4", "L5"]
 TIER_NAMES = ("quick", "standard", "full")
 TOLERANCE_KEYS = ("rel", "abs", "min", "max")
+# bench programs a run may start in place of `coupler run` (their figures are read from their output)
+TOOLS = ("l1_elastic_constants",)
 
 
 class SceneError(Exception):
@@ -40,15 +42,20 @@ def _check_run(path, name, run, root):
     where = "runs.%s." % name
     if not isinstance(run, dict):
         _fail(path, "runs." + name, "must be a map")
-    unknown = set(run) - {"config", "set", "tiers", "conditions", "needs", "timeout_s", "threads", "note"}
+    unknown = set(run) - {"config", "set", "tiers", "conditions", "needs", "timeout_s", "threads", "note", "tool", "args"}
     if unknown:
         _fail(path, where + sorted(unknown)[0], "unknown key")
+    if "tool" in run:  # a bench program of the build in place of a coupler run
+        if run["tool"] not in TOOLS or "config" in run or not isinstance(run.get("args", []), list):
+            _fail(path, where + "tool", "one of %s, with args (a list) and no config" % ", ".join(TOOLS))
+        run.setdefault("args", [])
+        run["config"] = ""
     if run.get("tiers") == []:
         # declared, run by no tier of validate.sh: the note says what computes the figures today
         _need(run, "note", str, path, where)
         run.setdefault("config", "")
     config = _need(run, "config", str, path, where)
-    if run["tiers"] == [] and not config:
+    if (run["tiers"] == [] or "tool" in run) and not config:
         pass
     elif not os.path.isfile(os.path.join(root, config)):
         _fail(path, where + "config", "no such file %s" % config)

@@ -62,13 +62,18 @@ def prepare(sc, binaries, runs_root):
 
 
 def command_for(run, binaries, out_dir, run_dirs):
+    def fill(s):
+        # {NAME} is the output directory of run NAME of the same scene, {prepare.NAME} a
+        # prepared input, {root} the checkout
+        for name, path in run_dirs.items():
+            s = s.replace("{%s}" % name, path)
+        return s.replace("{root}", ROOT)
+    if "tool" in run:  # a bench program of the build (its stdout is the run's output)
+        return [os.path.join(binaries, run["tool"])] + [fill(str(a)) for a in run["args"]]
     cmd = [os.path.join(binaries, "coupler"), "run", os.path.join(ROOT, run["config"]), "--out", out_dir,
            "--no-progress"]
     for s in run["set"]:
-        # {NAME} is the output directory of run NAME of the same scene, {root} the checkout
-        for name, path in run_dirs.items():
-            s = s.replace("{%s}" % name, path)
-        cmd += ["--set", s.replace("{root}", ROOT)]
+        cmd += ["--set", fill(s)]
     return cmd
 
 
@@ -79,6 +84,9 @@ def execute(run, binaries, out_dir, run_dirs):
     env = dict(os.environ)
     env.setdefault("OMP_NUM_THREADS", str(run.get("threads", 1)))
     log = out_dir + ".log"
+    if "tool" in run:
+        os.makedirs(out_dir, exist_ok=True)
+        log = os.path.join(out_dir, "output.txt")
     print("validate: start %s" % os.path.relpath(out_dir, os.path.dirname(os.path.dirname(os.path.dirname(out_dir)))),
           flush=True)
     start = time.monotonic()
@@ -91,12 +99,21 @@ def execute(run, binaries, out_dir, run_dirs):
         except subprocess.TimeoutExpired:
             code = 124
             f.write("validate: the run passed its timeout_s of %g s and was stopped\n" % run["timeout_s"])
-    return {"exit_code": code, "wall_s": time.monotonic() - start, "log": log, "out": out_dir, "bin": binaries}
+    res = {"exit_code": code, "wall_s": time.monotonic() - start, "log": log, "out": out_dir, "bin": binaries}
+    if "tool" in run:
+        with open(os.path.join(out_dir, "run.json"), "w") as f:
+            json.dump({"exit_code": code, "wall_s": res["wall_s"]}, f)
+    return res
 
 
 def reused(out_dir, binaries):
     """The result of an earlier run in out_dir (its run report), or None."""
     try:
+        if os.path.exists(os.path.join(out_dir, "run.json")):  # a tool's run
+            with open(os.path.join(out_dir, "run.json")) as f:
+                r = json.load(f)
+            return {"exit_code": int(r["exit_code"]), "wall_s": float(r["wall_s"]),
+                    "log": os.path.join(out_dir, "output.txt"), "out": out_dir, "bin": binaries}
         with open(os.path.join(out_dir, "run_report.json")) as f:
             r = json.load(f)
         return {"exit_code": int(r["exit_code"]), "wall_s": float(r["wall_s"]["total"]), "log": out_dir + ".log",
@@ -196,7 +213,8 @@ def rows_for(sc, tier, results):
             tol.setdefault("paper", fig["paper"])
         row = {"scene": sc["scene"], "figure": fig["figure"], "unit": fig["unit"], "paper": fig["paper"],
                "ours": None, "tolerance": tolerance_text(tol), "status": "not-run", "wall_s": None,
-               "config": run["config"] + "".join(" --set " + s for s in run["set"]),
+               "config": (run["config"] + "".join(" --set " + s for s in run["set"]) if "tool" not in run
+                          else "build/bin/" + " ".join([run["tool"]] + [str(a) for a in run["args"]])),
                "conditions": "; ".join(run["conditions"]) or "the paper's",
                "note": fig.get("note", ""), "source": fig["source"], "definition": fig["definition"],
                "tier": tier, "run": fig["run"], "headline": bool(fig.get("headline"))}

@@ -111,6 +111,11 @@ class ValidateRunner(unittest.TestCase):
             p, _ = run_validate(SCENE.replace("TOL", "0").replace("tiers: [quick, standard]", "tiers: [fast]"), work)
             self.assertEqual(p.returncode, 2)
             self.assertIn("runs.pair.tiers: unknown tier 'fast'", p.stderr)
+            # only the build's bench programs may stand in for a coupler run
+            p, _ = run_validate(SCENE.replace("TOL", "0").replace("config: configs/demo/two_mocks.yaml\n    set",
+                                                                   "tool: rm\n    args: [-rf, /]\n    set"), work)
+            self.assertEqual(p.returncode, 2)
+            self.assertIn("runs.pair.tool: one of l1_elastic_constants", p.stderr)
 
     def test_a_failed_run_deviates_with_its_message(self):
         with tempfile.TemporaryDirectory() as work:
