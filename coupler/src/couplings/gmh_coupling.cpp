@@ -375,6 +375,7 @@ class GmhCoupling final : public Coupling {
     out.pod(failedJobs_);
     out.vec(std::vector<std::uint32_t>(failedCells_.begin(), failedCells_.end()));
     if (inelastic_) inelastic_->save(out), out.pod(maxCorrection_);
+    out.pod(fine_);  // the run's smallest fine critical step so far: Liu's time-step figures
   }
   void restore(util::BinaryReader& in) override {
     failedJobs_ = in.pod<std::uint64_t>("failed unit-cell jobs");
@@ -382,6 +383,7 @@ class GmhCoupling final : public Coupling {
     if (cells.size() > failedJobs_) in.fail("failed unit cells", "more cells than failed jobs");
     failedCells_ = std::set<std::uint32_t>(cells.begin(), cells.end());
     if (inelastic_) inelastic_->restore(in), maxCorrection_ = in.pod<double>("largest inelastic correction");
+    fine_ = in.pod<decltype(fine_)>("fine time step figures");
   }
 
  private:
