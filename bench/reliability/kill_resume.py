@@ -8,7 +8,8 @@ uninterrupted run, bit for bit.
   kill_resume.py [--trials N] [--kinds surface,arlequin,pd-dem-contact,direct-transfer,gmh]
                  [--seed S] [--bin DIR] [--work DIR]
 
-Prints per kind: trials, kills of a solver the coupler detected (exit 3 before
+Prints per kind: trials, runs that ended before the kill landed (their
+results are compared too), kills of a solver the coupler detected (exit 3 before
 time zero or 4 during the run, the peer named), kills before the first checkpoint (the resume is refused, exit 3,
 and the trial is not a resume), resumes identical to the uninterrupted run,
 resumes that differ, hangs (a run that outlives its time limit) and orphans
@@ -121,7 +122,7 @@ def trial(rng, binaries, config, sets, work, k, reference, full_wall):
         pass
     code, hung = wait(p, 120)
     result = {"killed": "solver" if killed_solver else "coupler", "hung": hung, "detected": False,
-              "before_checkpoint": False, "identical": None, "orphans": 0}
+              "before_checkpoint": False, "identical": None, "orphans": 0, "ended_first": code == 0}
     if killed_solver and code in (3, 4):  # refused before time zero, or failed during the run
         with open(out + ".log") as f:
             result["detected"] = "peer '" in f.read()
@@ -163,8 +164,9 @@ def main():
             return 2
     work = a.work or tempfile.mkdtemp(prefix="kill-resume.")
     rng = random.Random(a.seed)
-    print("%-16s %7s %16s %18s %10s %8s %6s %8s" % ("kind", "trials", "solver kills seen", "before checkpoint",
-                                                    "identical", "differ", "hangs", "orphans"), flush=True)
+    print("%-16s %7s %11s %17s %18s %10s %8s %6s %8s" % (
+        "kind", "trials", "ended first", "solver kills seen", "before checkpoint", "identical", "differ", "hangs",
+        "orphans"), flush=True)
     bad = False
     for kind in kinds:
         config, sets = KINDS[kind]
@@ -193,13 +195,14 @@ def main():
             continue
         reference = physics(os.path.join(d, "whole"))
         results = [trial(rng, a.bin, config, sets, d, k, reference, full_wall) for k in range(a.trials)]
-        solver_kills = [r for r in results if r["killed"] == "solver"]
-        row = (kind, len(results), "%d of %d" % (sum(r["detected"] for r in solver_kills), len(solver_kills)),
+        solver_kills = [r for r in results if r["killed"] == "solver" and not r["ended_first"]]
+        row = (kind, len(results), sum(r["ended_first"] for r in results),
+               "%d of %d" % (sum(r["detected"] for r in solver_kills), len(solver_kills)),
                sum(r["before_checkpoint"] for r in results), sum(r["identical"] is True for r in results),
                sum(r["identical"] is False for r in results), sum(r["hung"] for r in results),
                sum(r["orphans"] for r in results))
-        print("%-16s %7d %16s %18d %10d %8d %6d %8d" % row, flush=True)
-        bad = bad or row[5] > 0 or row[6] > 0 or row[7] > 0
+        print("%-16s %7d %11d %17s %18d %10d %8d %6d %8d" % row, flush=True)
+        bad = bad or row[6] > 0 or row[7] > 0 or row[8] > 0
     print("runs kept in " + work)
     return 1 if bad else 0
 
