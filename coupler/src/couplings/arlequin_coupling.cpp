@@ -135,7 +135,7 @@ class ArlequinCoupling final : public Coupling {
       if (values.size() != 3 * rows) in.fail("arlequin: history", "not 3 values per row");
       *m = Eigen::Map<const Eigen::MatrixX3d>(values.data(), static_cast<Eigen::Index>(rows), 3);
     }
-    apply(h);
+    now_ = beforeLast_ = h;
   }
 
   void conclude(RunReport& report) const override {
@@ -148,11 +148,11 @@ class ArlequinCoupling final : public Coupling {
     if (d == ctx.outputs.end() || f == ctx.outputs.end()) return;
     // A resumed run replays the checkpoint's exchange from the history it had
     // before that exchange (restore()), so it stages the same forces again.
-    if (!ctx.replay) beforeLast_ = history();
+    if (!ctx.replay) beforeLast_ = now_;
     const proto::ParticleStates::Reader particles = particleZone(d->second, zone_, ctx.exchange);
     if (!penalty_) build(particles, f->second, ctx.exchange);
-    const double dt = ctx.exchange > 0 ? ctx.time - lastTime_ : 0.0;
-    lastTime_ = ctx.time;
+    const double dt = ctx.exchange > 0 ? ctx.time - now_.lastTime : 0.0;
+    now_.lastTime = ctx.time;
     gatherDisplacements(particles, f->second, ctx.exchange, dt);
     penalty_->compute(uParticles_, uNodes_, forces_);
     checkForces(ctx);
@@ -262,18 +262,18 @@ class ArlequinCoupling final : public Coupling {
     // pumps energy into the stiff penalty springs; predict the displacements
     // at t + dt instead, u + dt v + dt^2/2 a, with a from the last two
     // velocities (exact for one step per exchange).
-    predict(up, velocitiesOf(wire::view(s.getVelocities()), ids.size()), previousVp_, dt);
-    predict(uf, velocitiesOf(femArray(fem, zone_, "velocity", exchange), nodeIds_.size()), previousVn_, dt);
+    predict(up, velocitiesOf(wire::view(s.getVelocities()), ids.size()), now_.vParticles, dt);
+    predict(uf, velocitiesOf(femArray(fem, zone_, "velocity", exchange), nodeIds_.size()), now_.vNodes, dt);
     if (!up.allFinite() || !uf.allFinite())
       throw std::runtime_error(where(exchange) + ": non-finite displacements in the coupling zone: the run diverged");
     if (increments_) {
       // Cheng Sec. 5.2.3: penalise the displacements of the last exchange
       // interval, u^FE = X_t - X_{t-dt}, u^DE = v^DE dt.
-      if (previousParticles_.size() == 0) previousParticles_ = up, previousNodes_ = uf;
-      uParticles_ = up - previousParticles_;
-      uNodes_ = uf - previousNodes_;
-      previousParticles_ = up;
-      previousNodes_ = uf;
+      if (now_.particles.size() == 0) now_.particles = up, now_.nodes = uf;
+      uParticles_ = up - now_.particles;
+      uNodes_ = uf - now_.nodes;
+      now_.particles = up;
+      now_.nodes = uf;
     } else {
       uParticles_ = up;
       uNodes_ = uf;
@@ -348,15 +348,15 @@ class ArlequinCoupling final : public Coupling {
     if (!std::isfinite(total))
       throw std::runtime_error(where(ctx.exchange) + " at t = " + number(ctx.time) + " s: the weighted energy is not finite (DEM " +
                                number(eDem) + " J, FEM " + number(eFem) + " J, penalty " + number(forces_.energy) + " J)");
-    if (referenceEnergy_ <= 0.0 && total > 0.0) referenceEnergy_ = total;
+    if (now_.referenceEnergy <= 0.0 && total > 0.0) now_.referenceEnergy = total;
     // Energy put in since by DEM's drives (a driven layer, Cheng Table 4 (b))
     // raises the bound; the penalty's own work is not input.
-    const double supplied = referenceEnergy_ + std::max(0.0, energy(ctx, dem_, {"drive_work"}));
-    if (referenceEnergy_ > 0.0 && total > maxGrowth_ * supplied)
+    const double supplied = now_.referenceEnergy + std::max(0.0, energy(ctx, dem_, {"drive_work"}));
+    if (now_.referenceEnergy > 0.0 && total > maxGrowth_ * supplied)
       throw std::runtime_error(where(ctx.exchange) + " at t = " + number(ctx.time) + " s: the coupled energy diverged: " +
                                number(total) + " J (DEM " + number(eDem) + ", FEM " + number(eFem) + ", penalty " +
                                number(forces_.energy) + ") is more than " + number(maxGrowth_) + " times its first value " +
-                               number(referenceEnergy_) + " J plus the work done on DEM since (" + number(supplied) +
+                               number(now_.referenceEnergy) + " J plus the work done on DEM since (" + number(supplied) +
                                " J together; max_energy_growth); lower the penalty or the CG width");
     if (!ctx.series) return;
     const Eigen::Vector3d sumNodes = forces_.onNodes.colwise().sum(), sumParticles = forces_.onParticles.colwise().sum();
@@ -382,30 +382,18 @@ class ArlequinCoupling final : public Coupling {
     double lastTime = 0.0, referenceEnergy = 0.0;
     Eigen::MatrixX3d particles, nodes, vParticles, vNodes;
   };
-  History history() const {
-    return {lastTime_, referenceEnergy_, previousParticles_, previousNodes_, previousVp_, previousVn_};
-  }
-  void apply(const History& h) {
-    beforeLast_ = h;
-    lastTime_ = h.lastTime;
-    referenceEnergy_ = h.referenceEnergy;
-    previousParticles_ = h.particles;
-    previousNodes_ = h.nodes;
-    previousVp_ = h.vParticles;
-    previousVn_ = h.vNodes;
-  }
 
   std::string dem_, fem_, zone_, systemDem_, systemFem_;
-  History beforeLast_;
+  History now_, beforeLast_;  // the history as it is, and as it was before the last exchange
   util::WeightProfile profile_;
-  double epsilon_ = 0.0, width_ = 0.0, maxGrowth_ = 100.0, referenceEnergy_ = 0.0, lastTime_ = 0.0;
+  double epsilon_ = 0.0, width_ = 0.0, maxGrowth_ = 100.0;
   bool increments_ = false;
   std::unique_ptr<CgKernel> kernel_;
   ZoneMesh mesh_;
   std::unique_ptr<PenaltyCoupling> penalty_;
   PenaltyCoupling::Frequencies frequencies_;
   PenaltyCoupling::Forces forces_;
-  Eigen::MatrixX3d uParticles_, uNodes_, previousParticles_, previousNodes_, previousVp_, previousVn_;
+  Eigen::MatrixX3d uParticles_, uNodes_;
   // Staged views point into these until the next exchange.
   std::vector<std::uint32_t> nodeIds_, particleIds_;
   std::vector<double> nodeForces_, particleForces_;
