@@ -42,7 +42,8 @@ def _check_run(path, name, run, root):
     where = "runs.%s." % name
     if not isinstance(run, dict):
         _fail(path, "runs." + name, "must be a map")
-    unknown = set(run) - {"config", "set", "tiers", "conditions", "needs", "timeout_s", "threads", "note", "tool", "args"}
+    unknown = set(run) - {"config", "set", "tiers", "conditions", "needs", "timeout_s", "threads", "note", "tool",
+                          "args"}
     if unknown:
         _fail(path, where + sorted(unknown)[0], "unknown key")
     if "tool" in run:  # a bench program of the build in place of a coupler run
@@ -55,12 +56,11 @@ def _check_run(path, name, run, root):
         _need(run, "note", str, path, where)
         run.setdefault("config", "")
     config = _need(run, "config", str, path, where)
-    if (run["tiers"] == [] or "tool" in run) and not config:
-        pass
-    elif not os.path.isfile(os.path.join(root, config)):
-        _fail(path, where + "config", "no such file %s" % config)
-    if config and not config.startswith("configs/"):
-        _fail(path, where + "config", "a validation run runs a scene of configs/")
+    if config or ("tool" not in run and run["tiers"] != []):  # a coupler run needs its scene
+        if not config.startswith("configs/"):
+            _fail(path, where + "config", "a validation run runs a scene of configs/")
+        if not os.path.isfile(os.path.join(root, config)):
+            _fail(path, where + "config", "no such file %s" % config)
     run.setdefault("set", [])
     run.setdefault("conditions", [])
     run.setdefault("needs", [])
