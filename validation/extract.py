@@ -205,13 +205,40 @@ def c2_figures(run, scale):
             return {}
         g = f["series"][groups[0]]
         e, m = g["energy"][:], g["mass"][:]
-    out = {"mass_drift": float(np.abs(m - m[0]).max() / abs(m[0]))}
+        dem, fem = g["dem_energy"][:], g["fem_energy"][:]
+    out = {"mass_drift": float(np.abs(m - m[0]).max() / abs(m[0])), "initial_mass": float(m[0])}
+    out.update(_against_published_c2(t, dem, fem))
     # 1P: rows 20 -> 63 of the published series; 2P-4P: rows 20 -> 82 (19.9 -> 81.7 ms)
     for t1, t2 in ((0.0193, 0.0608), (0.0199, 0.0817)):
         if t[-1] >= t2 / scale:
             e1, e2 = np.interp(t1 / scale, t, e), np.interp(t2 / scale, t, e)
             out["dissipation_%g_%g" % (1e3 * t1, 1e3 * t2)] = float((e1 - e2) / e1)
     return out
+
+
+PUBLISHED_C2 = os.path.join(ROOT, "validation", "published", "cheng2022_pulsewave1p")
+
+
+def published_c2():
+    """The published 1P c = 0 run (units mm, ug, ms, nJ): t [s], weighted DEM and FEM energies [J], total mass [kg]."""
+    import numpy as np
+    ene = np.loadtxt(os.path.join(PUBLISHED_C2, "coupled_c0.ene"), skiprows=1)
+    trace = np.loadtxt(os.path.join(PUBLISHED_C2, "coupled_c0_trace.dat"))
+    n = min(len(ene), len(trace))
+    ene, trace = ene[:n], trace[:n]
+    # .ene: translational + rotational kinetic + elastic; Trace.dat: kinetic (11) + strain (13)
+    return {"t": 1e-3 * ene[:, 0], "dem": 1e-9 * (ene[:, 9] + ene[:, 10] + ene[:, 11]),
+            "fem": 1e-9 * (trace[:, 11] + trace[:, 13]), "mass": 1e-9 * (ene[0, 1] + trace[0, 4])}
+
+
+def _against_published_c2(t, dem, fem):
+    """RMS over the published rows within the run of ours minus the published run's weighted DEM and FEM energies, over E_0."""
+    import numpy as np
+    p = published_c2()
+    rows = p["t"] <= t[-1] * (1 + 1e-9)
+    e0 = p["dem"][0] + p["fem"][0]
+    rms = lambda ours, theirs: float(np.sqrt(np.mean((np.interp(p["t"][rows], t, ours) - theirs[rows]) ** 2)) / e0)
+    return {"published_rms_dem": rms(dem, p["dem"]), "published_rms_fem": rms(fem, p["fem"])}
 
 
 # --- scene L2 (Liu 2016 Sec. 3.2): GMH against the direct DEM test of the same cell ---

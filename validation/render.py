@@ -14,6 +14,9 @@ import os
 import re
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import extract  # noqa: E402  (the published data sets)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MARKER = re.compile(r"(<!-- validation: ([A-Za-z0-9_,\s]+) -->\n)(.*?)(<!-- /validation -->)", re.S)
 
@@ -126,33 +129,52 @@ def figures(scenes, rows, results, directory):
             series_plot(sc, p, results, os.path.join(directory, "%s_%s.png" % (sc["scene"], p.get("name", i))))
 
 
+def published_series(pub):
+    """(t, y) of a published series named by a plot's `published` entry: {label, name, y} with
+    name one of extract's published data sets (c2: the 1P c = 0 run of Cheng 2022) and y its key."""
+    if pub["name"] != "c2":
+        raise KeyError(pub["name"])
+    p = extract.published_c2()
+    return p["t"], p[pub["y"]]
+
+
 def series_plot(sc, p, results, path):
     """A series of coupler.h5 (or another file of the run) against time, for several runs on one axis."""
     import h5py
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4))
     drawn = 0
+    datasets = p["y"] if isinstance(p["y"], list) else [p["y"]]
     for run in p["runs"]:
         res = results.get((sc["scene"], run))
         if res is None:
             continue
+        for dataset in datasets:
+            try:
+                with h5py.File(os.path.join(res["out"], p.get("file", "coupler.h5")), "r") as f:
+                    t = f[p.get("x", "series/time")][:]
+                    y = f[dataset][:]
+            except (OSError, KeyError):
+                continue
+            if y.ndim > 1:
+                y = y[:, p.get("column", 0)]
+            n = min(len(t), len(y))
+            label = run if len(datasets) == 1 else "%s: %s" % (run, dataset.rsplit("/", 1)[-1])
+            ax.plot(t[:n], y[:n] * p.get("scale", 1.0), label=label, lw=1)
+            drawn += 1
+    for pub in p.get("published", []):
         try:
-            with h5py.File(os.path.join(res["out"], p.get("file", "coupler.h5")), "r") as f:
-                t = f[p.get("x", "series/time")][:]
-                y = f[p["y"]][:]
-        except (OSError, KeyError):
+            t, y = published_series(pub)
+        except (OSError, KeyError, ValueError):
             continue
-        if y.ndim > 1:
-            y = y[:, p.get("column", 0)]
-        n = min(len(t), len(y))
-        ax.plot(t[:n], y[:n] * p.get("scale", 1.0), label=run, lw=1)
+        ax.plot(t, y, ls="--", color="black", lw=1, label=pub["label"])
         drawn += 1
     for ref in p.get("paper", []):
         ax.axhline(ref["value"], ls="--", color="grey", lw=0.8)
         ax.annotate(ref["label"], (0.01, ref["value"]), xycoords=("axes fraction", "data"), fontsize=7)
     if drawn:
         ax.set_xlabel(p.get("xlabel", "t [s]"))
-        ax.set_ylabel(p.get("ylabel", p["y"]))
+        ax.set_ylabel(p.get("ylabel", datasets[0]))
         ax.set_title("%s: %s" % (sc["scene"], p.get("title", p["y"])), fontsize=9)
         ax.legend(fontsize=7)
         fig.tight_layout()

@@ -39,4 +39,7 @@ struct WeightProfile {
   axis @1 :UInt8;                    # 0 = x, 1 = y, 2 = z
   start @2 :Float64;                 # w = 1 on the DEM side of start
   end @3 :Float64;                   # w = 0 beyond end
+  low @4 :Float64 = 0.0;             # w at end, inside the closed zone
+  high @5 :Float64 = 1.0;            # w at start, inside the closed zone
+  nodalFem @6 :Bool = false;         # FEM interpolates nodal w (else w at its quadrature points)
 }

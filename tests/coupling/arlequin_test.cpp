@@ -40,6 +40,24 @@ TEST(ArlequinWeight, HalfCosineAndLinearProfiles) {
   EXPECT_NE(util::WeightProfile({"linear", 0, 1, 1}).problem().find("differ"), std::string::npos);
 }
 
+TEST(ArlequinWeight, PublishedRangeJumpsAtTheClosedZoneEnds) {
+  // The published runs: 0.9 at the DEM end (start = 6), 0.1 at the FE end
+  // (end = 2), 1 and 0 outside; nodes on the zone's faces, even a few ulps
+  // off, take the zone's values.
+  util::WeightProfile w{"half-cosine", 1, 6.0, 2.0, 0.1, 0.9};
+  EXPECT_TRUE(w.problem().empty());
+  EXPECT_NEAR(w.along(6.0), 0.9, 1e-15);
+  EXPECT_NEAR(w.along(6.0 + 1e-12), 0.9, 1e-15);
+  EXPECT_NEAR(w.along(-6.0 + 0.4 * 20), 0.1, 1e-15);  // 2.0000000000000004
+  EXPECT_EQ(w.along(6.2), 1.0);
+  EXPECT_EQ(w.along(1.6), 0.0);
+  EXPECT_NEAR(w.along(4.0), 0.5, 1e-15);
+  const double s = 0.05;  // w = 0.1 + 0.4 - 0.4 cos(pi s), s from the FE end
+  EXPECT_NEAR(w.along(2.0 + 4.0 * s), 0.5 - 0.4 * std::cos(std::numbers::pi * s), 1e-15);
+  EXPECT_NE(util::WeightProfile({"linear", 0, 0, 1, 0.9, 0.1}).problem().find("weight range"), std::string::npos);
+  EXPECT_NE(util::WeightProfile({"linear", 0, 0, 1, -0.1, 1.0}).problem().find("weight range"), std::string::npos);
+}
+
 /// A zone exported by fem_solver's own VolumeZone, so the coupler reads what the solver sends.
 struct Zone {
   fem::Mesh mesh;
@@ -235,6 +253,82 @@ TEST_P(ArlequinPiForms, PenaltyForcesBalanceAndDeriveFromTheEnergy) {
   penalty.compute(up, plus, fp);
   penalty.compute(up, minus, fm);
   EXPECT_NEAR(-(fp.energy - fm.energy) / (2 * du), f.onNodes(3, 2), 1e-6 * f.onNodes.cwiseAbs().maxCoeff());
+}
+
+// The per-element form of the published runs, one particle per element:
+// each particle is tied to the 8 corners of its own element with the lumped
+// element matrix V_e / 8, so f_a = -eps V_e / 8 sum_k (u_a - u_k); the FE
+// nodes receive the same forces as from the zone form (Pi_ia = 1 / n_i,
+// M_ii = n_i V_e / 8), the particles do not.
+TEST(ArlequinPiElement, OneParticlePerElementTiesEachParticleToItsCorners) {
+  const double h = 0.4, eps = 1e10, ve = h * h * h;
+  Zone z({0, 0, 0}, {0.8, 1.2, 0.8}, {2, 3, 2});
+  const ParticleCloud c = lattice({0, 0, 0}, {0.8, 1.2, 0.8}, h, 1, true);
+  const ElementPenalty e = elementPenalty(z.zone, c, Smoothing{}, true);
+  ASSERT_EQ(e.pi.rows(), 8 * 12);
+  EXPECT_NEAR((e.pi * Eigen::VectorXd::Ones(e.pi.cols())).maxCoeff(), 1.0, 1e-15);
+  EXPECT_NEAR((e.matrix * Eigen::VectorXd::Ones(e.matrix.cols())).maxCoeff(), ve / 8, 1e-15);
+  EXPECT_NEAR((e.matrix * Eigen::VectorXd::Ones(e.matrix.cols())).minCoeff(), ve / 8, 1e-15);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1e-3, 1e-3);
+  Eigen::MatrixX3d up(static_cast<Eigen::Index>(c.positions.size()), 3), un(static_cast<Eigen::Index>(z.zone.nodes.size()), 3);
+  for (Eigen::Index k = 0; k < up.size(); ++k) up.data()[k] = u(rng);
+  for (Eigen::Index k = 0; k < un.size(); ++k) un.data()[k] = u(rng);
+  PenaltyCoupling::Forces fe, fz;
+  PenaltyCoupling(e.pi, e.matrix, eps, e.gather).compute(up, un, fe);
+  const Eigen::Vector3d balance = fe.onNodes.colwise().sum() + fe.onParticles.colwise().sum();
+  EXPECT_LT(balance.cwiseAbs().maxCoeff(), 1e-12 * fe.onNodes.cwiseAbs().maxCoeff());
+  for (std::size_t a = 0; a < c.positions.size(); ++a) {
+    // The element holding particle a: its centre is the particle.
+    std::size_t el = 0;
+    for (; el < z.zone.elements.size(); ++el) {
+      Eigen::Vector3d mid = Eigen::Vector3d::Zero();
+      for (const auto& x : z.zone.corners(el)) mid += x / 8;
+      if ((mid - c.positions[a]).norm() < 1e-12) break;
+    }
+    ASSERT_LT(el, z.zone.elements.size());
+    Eigen::RowVector3d expect = Eigen::RowVector3d::Zero();
+    for (std::uint32_t k : z.zone.elements[el]) expect -= eps * ve / 8 * (up.row(static_cast<Eigen::Index>(a)) - un.row(k));
+    EXPECT_LT((fe.onParticles.row(static_cast<Eigen::Index>(a)) - expect).cwiseAbs().maxCoeff(), 1e-9 * expect.norm());
+  }
+  PenaltyCoupling(homogenisationDirac(z.zone, c), rowSumLumped(zoneMatrix(z.zone, z.matrix, "test")), eps).compute(up, un, fz);
+  EXPECT_LT((fz.onNodes - fe.onNodes).cwiseAbs().maxCoeff(), 1e-9 * fe.onNodes.cwiseAbs().maxCoeff());
+  EXPECT_GT((fz.onParticles - fe.onParticles).cwiseAbs().maxCoeff(), 1e-3 * fe.onParticles.cwiseAbs().maxCoeff());
+}
+
+// Several particles per element, CG per element with the consistent element
+// matrices: rows reproduce a uniform field, forces balance and derive from
+// the energy, and the frequency bound covers the gathered stiffness.
+TEST(ArlequinPiElement, CgRowsAreNormalisedAndForcesDeriveFromTheEnergy) {
+  const double h = 0.4, eps = 1e8;
+  Zone z({0, 0, 0}, {0.8, 1.2, 0.8}, {2, 3, 2});
+  const ParticleCloud c = lattice({0, 0, 0}, {0.8, 1.2, 0.8}, h, 2);
+  const auto lucy = CgKernelRegistry::create("lucy", "test");
+  const ElementPenalty e = elementPenalty(z.zone, c, Smoothing{lucy.get(), 0.5 * h}, false);
+  const Eigen::MatrixX3d uniform = homogenise(e.pi, c, [](const Eigen::Vector3d&) { return Eigen::Vector3d(1, -2, 3); });
+  EXPECT_LT((uniform.rowwise() - Eigen::RowVector3d(1, -2, 3)).cwiseAbs().maxCoeff(), 1e-12);
+  // The element matrices sum to the zone's.
+  const SparseMatrix assembled = SparseMatrix(e.gather.transpose()) * e.matrix * e.gather;
+  EXPECT_LT((Eigen::MatrixXd(assembled) - Eigen::MatrixXd(zoneMatrix(z.zone, z.matrix, "test"))).cwiseAbs().maxCoeff(), 1e-14);
+  const PenaltyCoupling penalty(e.pi, e.matrix, eps, e.gather);
+  Eigen::MatrixX3d up = Eigen::MatrixX3d::Zero(static_cast<Eigen::Index>(c.positions.size()), 3);
+  Eigen::MatrixX3d un = Eigen::MatrixX3d::Zero(static_cast<Eigen::Index>(z.zone.nodes.size()), 3);
+  for (Eigen::Index k = 0; k < up.rows(); ++k) up(k, 1) = 1e-3 * std::sin(1.0 + k);
+  for (Eigen::Index k = 0; k < un.rows(); ++k) un(k, 1) = 1e-3 * std::cos(2.0 * k);
+  PenaltyCoupling::Forces f, fp, fm;
+  penalty.compute(up, un, f);
+  const Eigen::Vector3d balance = f.onNodes.colwise().sum() + f.onParticles.colwise().sum();
+  EXPECT_LT(balance.cwiseAbs().maxCoeff(), 1e-12 * f.onNodes.cwiseAbs().maxCoeff());
+  const double du = 1e-7;
+  up(5, 1) += du;
+  penalty.compute(up, un, fp);
+  up(5, 1) -= 2 * du;
+  penalty.compute(up, un, fm);
+  EXPECT_NEAR(-(fp.energy - fm.energy) / (2 * du), f.onParticles(5, 1), 1e-6 * f.onParticles.cwiseAbs().maxCoeff());
+  const auto bound = penalty.maxFrequencies(std::vector<double>(z.zone.nodes.size(), 1.0), std::vector<double>(c.positions.size(), 1.0));
+  EXPECT_GT(bound.nodes, 0.0);
+  EXPECT_GT(bound.particles, 0.0);
+  EXPECT_THROW(elementPenalty(z.zone, ParticleCloud{{Eigen::Vector3d(5, 5, 5)}, {1.0}}, Smoothing{}, true), std::runtime_error);
 }
 
 }  // namespace

@@ -59,6 +59,10 @@ class ArlequinCoupling final : public Coupling {
     // width 0 is the c -> 0 limit of every kernel: the Dirac form (Eq. 19),
     // so a sweep over c can keep its kernel.
     increments_ = m.choice("constraint", {"displacement", "increment"}, "displacement") == "increment";
+    lumped_ = m.choice("penalty_matrix", {"consistent", "lumped"}, "consistent") == "lumped";
+    perElement_ = m.choice("projection", {"zone", "element"}, "zone") == "element";
+    cgPoints_ = m.choice("cg_quadrature", {"resolved", "element"}, "resolved") == "element" ? 2 : 0;
+    predict_ = m.choice("gap_prediction", {"time-centred", "none"}, "time-centred") == "time-centred";
     maxGrowth_ = m.number("max_energy_growth", 100.0, config::Range{1.0, 1e300, true});
     if (m.has("system")) {
       config::MapReader s(m.node("system"), m.keyPath("system"), m.diagnostics());
@@ -81,14 +85,15 @@ class ArlequinCoupling final : public Coupling {
     out << dem_ << " <-> " << fem_ << ": arlequin zone " << zone_ << ", w " << profile_.kind << " along "
         << "xyz"[profile_.axis] << " from " << profile_.start << " to " << profile_.end << ", penalty " << epsilon_
         << " Pa/m^2, " << (width_ > 0.0 ? kernel_->name() + " c = " + number(width_) + " m" : std::string("c = 0"))
-        << ", constraint on " << (increments_ ? "increments" : "displacements");
+        << ", constraint on " << (increments_ ? "increments" : "displacements") << (lumped_ ? ", lumped M" : "") << (perElement_ ? ", per-element Pi" : "")
+        << (predict_ ? "" : ", no gap prediction");
+    if (profile_.low > 0.0 || profile_.high < 1.0) out << ", w in [" << profile_.low << ", " << profile_.high << "]";
+    if (profile_.nodalFem) out << ", nodal FE weights";
   }
 
   void stageSetup(std::map<std::string, InputAssembler>& inputs) const override {
-    const InputAssembler::StagedWeightProfile wp{profile_.kind, static_cast<std::uint8_t>(profile_.axis), profile_.start,
-                                                 profile_.end};
-    inputs[dem_].stageWeightProfile(wp);
-    inputs[fem_].stageWeightProfile(wp);
+    inputs[dem_].stageWeightProfile(profile_);
+    inputs[fem_].stageWeightProfile(profile_);
   }
 
   /// Pi and M from the setup outputs, so the penalty's stiffness is known
@@ -172,6 +177,11 @@ class ArlequinCoupling final : public Coupling {
     profile_.axis = axis == "x" ? 0 : axis == "y" ? 1 : 2;
     profile_.start = p.requireNumber("start");
     profile_.end = p.requireNumber("end");
+    // The published runs' 0.1-0.9 range and nodal FE weights
+    // (shared/reference/cheng2022); the paper's text: 0-1 at the FE points.
+    profile_.low = p.number("w_min", 0.0, config::Range::closed(0.0, 1.0));
+    profile_.high = p.number("w_max", 1.0, config::Range::closed(0.0, 1.0));
+    profile_.nodalFem = p.choice("fem_weights", {"points", "nodes"}, "points") == "nodes";
     p.finish();
     if (p.valid() && m.diagnostics().ok())
       if (const std::string why = profile_.problem(); !why.empty()) m.error("profile", why);
@@ -208,9 +218,15 @@ class ArlequinCoupling final : public Coupling {
       throw std::runtime_error(where(exchange) + ": CG width c = " + number(width_) + " m exceeds the coupling zone's length " +
                                number(extent[profile_.axis]) + " m along the profile axis: the homogenisation would reach far outside it");
     ParticleCloud cloud = referenceCloud(particles, exchange);
-    SparseMatrix pi = width_ > 0.0 ? homogenisationCg(mesh_, cloud, *kernel_, width_) : homogenisationDirac(mesh_, cloud);
-    penalty_ = std::make_unique<PenaltyCoupling>(std::move(pi), zoneMatrix(mesh_, femArray(fem, zone_, "matrix", exchange), what),
-                                                 epsilon_);
+    const Smoothing smoothing{width_ > 0.0 ? kernel_.get() : nullptr, width_, cgPoints_};
+    if (perElement_) {
+      ElementPenalty e = elementPenalty(mesh_, cloud, smoothing, lumped_);
+      penalty_ = std::make_unique<PenaltyCoupling>(std::move(e.pi), std::move(e.matrix), epsilon_, std::move(e.gather));
+    } else {
+      SparseMatrix matrix = zoneMatrix(mesh_, femArray(fem, zone_, "matrix", exchange), what);
+      if (lumped_) matrix = rowSumLumped(matrix);
+      penalty_ = std::make_unique<PenaltyCoupling>(homogenisation(mesh_, cloud, smoothing), std::move(matrix), epsilon_);
+    }
     // Inertia as the solvers integrate it: FEM's (1 - w)-weighted lumped
     // masses, w m for the particles (Cheng Eqs. 25-26).
     const auto nodeMasses = femArray(fem, zone_, "masses", exchange);
@@ -262,8 +278,12 @@ class ArlequinCoupling final : public Coupling {
     // pumps energy into the stiff penalty springs; predict the displacements
     // at t + dt instead, u + dt v + dt^2/2 a, with a from the last two
     // velocities (exact for one step per exchange).
-    predict(up, velocitiesOf(wire::view(s.getVelocities()), ids.size()), now_.vParticles, dt);
-    predict(uf, velocitiesOf(femArray(fem, zone_, "velocity", exchange), nodeIds_.size()), now_.vNodes, dt);
+    // `gap_prediction: none` is the published runs' staggered exchange: the
+    // forces of the step to t + dt from the displacements at t.
+    if (predict_) {
+      predict(up, velocitiesOf(wire::view(s.getVelocities()), ids.size()), now_.vParticles, dt);
+      predict(uf, velocitiesOf(femArray(fem, zone_, "velocity", exchange), nodeIds_.size()), now_.vNodes, dt);
+    }
     if (!up.allFinite() || !uf.allFinite())
       throw std::runtime_error(where(exchange) + ": non-finite displacements in the coupling zone: the run diverged");
     if (increments_) {
@@ -387,7 +407,8 @@ class ArlequinCoupling final : public Coupling {
   History now_, beforeLast_;  // the history as it is, and as it was before the last exchange
   util::WeightProfile profile_;
   double epsilon_ = 0.0, width_ = 0.0, maxGrowth_ = 100.0;
-  bool increments_ = false;
+  int cgPoints_ = 0;  // Gauss points per direction of the CG integral (0: resolved)
+  bool increments_ = false, lumped_ = false, predict_ = true, perElement_ = false;
   std::unique_ptr<CgKernel> kernel_;
   ZoneMesh mesh_;
   std::unique_ptr<PenaltyCoupling> penalty_;

@@ -2,6 +2,7 @@
 
 #include "cosim/coupler/couplings/coupling.hpp"
 #include "cosim/wire/arrays.hpp"
+#include "cosim/wire/weight_profile.hpp"
 
 namespace cosim::coupler {
 namespace {
@@ -118,12 +119,7 @@ void InputAssembler::build(proto::CouplingData::Builder data) {
   }
   if (!profiles_.empty()) {
     auto list = data.initWeightProfiles(static_cast<unsigned>(profiles_.size()));
-    for (unsigned i = 0; i < profiles_.size(); ++i) {
-      list[i].setKind(profiles_[i].kind);
-      list[i].setAxis(profiles_[i].axis);
-      list[i].setStart(profiles_[i].start);
-      list[i].setEnd(profiles_[i].end);
-    }
+    for (unsigned i = 0; i < profiles_.size(); ++i) wire::write(profiles_[i], list[i]);
   }
   buildUnitCells(data);
   buildHybrid(data);

@@ -139,40 +139,61 @@ SparseMatrix zoneMatrix(const ZoneMesh& zone, std::span<const double> triplets, 
   return m;
 }
 
-PenaltyCoupling::PenaltyCoupling(SparseMatrix pi, SparseMatrix zoneMatrix, double epsilon)
-    : pi_(std::move(pi)), m_(std::move(zoneMatrix)), epsilon_(epsilon) {
+SparseMatrix rowSumLumped(const SparseMatrix& m) {
+  const Eigen::VectorXd rows = m * Eigen::VectorXd::Ones(m.cols());
+  SparseMatrix d(m.rows(), m.cols());
+  d.reserve(Eigen::VectorXi::Constant(m.rows(), 1));
+  for (Eigen::Index i = 0; i < m.rows(); ++i) d.insert(i, i) = rows(i);
+  d.makeCompressed();
+  return d;
+}
+
+PenaltyCoupling::PenaltyCoupling(SparseMatrix pi, SparseMatrix zoneMatrix, double epsilon, SparseMatrix gather)
+    : pi_(std::move(pi)), m_(std::move(zoneMatrix)), gather_(std::move(gather)), epsilon_(epsilon) {
+  if (gather_.size() == 0) {
+    gather_.resize(pi_.rows(), pi_.rows());
+    gather_.setIdentity();
+  }
+  if (gather_.rows() != pi_.rows())
+    throw std::runtime_error("penalty coupling: Pi has " + std::to_string(pi_.rows()) + " rows but the gather map " +
+                             std::to_string(gather_.rows()));
   if (pi_.rows() != m_.rows() || m_.rows() != m_.cols())
     throw std::runtime_error("penalty coupling: Pi has " + std::to_string(pi_.rows()) + " rows but the zone matrix is " +
                              std::to_string(m_.rows()) + " x " + std::to_string(m_.cols()));
 }
 
 void PenaltyCoupling::compute(const Eigen::MatrixX3d& uParticles, const Eigen::MatrixX3d& uNodes, Forces& out) const {
-  if (uParticles.rows() != pi_.cols() || uNodes.rows() != pi_.rows())
+  if (uParticles.rows() != pi_.cols() || uNodes.rows() != gather_.cols())
     throw std::runtime_error("penalty coupling: " + std::to_string(uParticles.rows()) + " particle and " +
                              std::to_string(uNodes.rows()) + " node values for a " + std::to_string(pi_.rows()) +
-                             " x " + std::to_string(pi_.cols()) + " homogenisation operator");
+                             " x " + std::to_string(pi_.cols()) + " homogenisation operator on " +
+                             std::to_string(gather_.cols()) + " nodes");
   out.uDe = pi_ * uParticles;                        // Cheng Eq. 27/28
-  out.uFe = uNodes;
+  out.uFe = gather_ * uNodes;
   const Eigen::MatrixX3d gap = out.uDe - out.uFe;
   const Eigen::MatrixX3d Mgap = m_ * gap;
-  out.onNodes = epsilon_ * Mgap;                     // Eqs. 31, 38: int psi_i b^C dV
-  out.onParticles = -(pi_.transpose() * out.onNodes);  // Eqs. 32, 39
+  const Eigen::MatrixX3d onRows = epsilon_ * Mgap;   // Eqs. 31, 38: int psi_i b^C dV
+  out.onNodes = SparseMatrix(gather_.transpose()) * onRows;
+  out.onParticles = -(pi_.transpose() * onRows);     // Eqs. 32, 39
   out.energy = 0.5 * epsilon_ * (gap.array() * Mgap.array()).sum();  // Eq. 29 as an energy
 }
 
 PenaltyCoupling::Frequencies PenaltyCoupling::maxFrequencies(const std::vector<double>& nodeMasses,
                                                             const std::vector<double>& particleMasses) const {
-  if (nodeMasses.size() != static_cast<std::size_t>(m_.rows()) ||
+  if (nodeMasses.size() != static_cast<std::size_t>(gather_.cols()) ||
       particleMasses.size() != static_cast<std::size_t>(pi_.cols()))
     throw std::runtime_error("penalty coupling: " + std::to_string(nodeMasses.size()) + " node and " +
                              std::to_string(particleMasses.size()) + " particle masses for a " +
                              std::to_string(pi_.rows()) + " x " + std::to_string(pi_.cols()) + " operator");
-  const SparseMatrix mPi = m_ * pi_;
+  // K = eps [G^T M G, -G^T M Pi; -Pi^T M G, Pi^T M Pi] (G = I for the zone form).
+  const SparseMatrix gT = gather_.transpose();
+  const SparseMatrix mG = m_ * gather_, mPi = m_ * pi_;
+  const SparseMatrix gMG = gT * mG, gMPi = gT * mPi;
   const SparseMatrix piMPi = SparseMatrix(pi_.transpose()) * mPi;
   std::vector<double> nodeRow(nodeMasses.size(), 0.0), particleRow(particleMasses.size(), 0.0);
-  for (Eigen::Index i = 0; i < m_.outerSize(); ++i) {
-    for (SparseMatrix::InnerIterator it(m_, i); it; ++it) nodeRow[static_cast<std::size_t>(i)] += std::abs(it.value());
-    for (SparseMatrix::InnerIterator it(mPi, i); it; ++it) {
+  for (Eigen::Index i = 0; i < gMG.outerSize(); ++i) {
+    for (SparseMatrix::InnerIterator it(gMG, i); it; ++it) nodeRow[static_cast<std::size_t>(i)] += std::abs(it.value());
+    for (SparseMatrix::InnerIterator it(gMPi, i); it; ++it) {
       nodeRow[static_cast<std::size_t>(i)] += std::abs(it.value());
       particleRow[static_cast<std::size_t>(it.col())] += std::abs(it.value());
     }

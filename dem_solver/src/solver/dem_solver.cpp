@@ -10,7 +10,7 @@
 #include "cosim/dem/io/checkpoint.hpp"
 #include "cosim/dem/measure/measures.hpp"
 #include "cosim/util/finite.hpp"
-#include "cosim/util/weight_profile.hpp"
+#include "cosim/wire/weight_profile.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/coupling_forces.hpp"
 
@@ -229,12 +229,7 @@ void DemSolver::applyWeightProfile(proto::CouplingData::Reader inputs) {
   if (inputs.getWeightProfiles().size() > 1)
     throw SolverError(Code::BAD_INPUT, "setup: " + std::to_string(inputs.getWeightProfiles().size()) +
                                            " weight profiles sent; a DEM solver takes one");
-  const auto wp = inputs.getWeightProfiles()[0];
-  util::WeightProfile profile;
-  profile.kind = wp.getKind().cStr();
-  profile.axis = wp.getAxis();
-  profile.start = wp.getStart();
-  profile.end = wp.getEnd();
+  const util::WeightProfile profile = wire::read(inputs.getWeightProfiles()[0]);
   if (const std::string why = profile.problem(); !why.empty())
     throw SolverError(Code::BAD_INPUT, "setup: weight profile: " + why);
   Particles& p = system_.particles;

@@ -131,12 +131,21 @@ void Model::setArlequinWeight(const WeightProfile& profile) {
   gaussWeight_.assign(8 * ne, 1.0);
   const int np = formulation_->pointsPerElement();
   std::vector<double> pointScale(ne * static_cast<std::size_t>(np));
-  for (std::size_t e = 0; e < ne; ++e) {
+  // 1 - w at a point of element e: w evaluated there (Cheng 2022 Eq. 25), or
+  // the nodes' w interpolated with the shape functions (the published runs).
+  const auto fe = [&](std::size_t e, const Vec3& xi) {
     const Mat83 X = mesh_.elementCoordinates(e);
-    for (int q = 0; q < 8; ++q)
-      gaussWeight_[8 * e + static_cast<std::size_t>(q)] =
-          1.0 - profile(X.transpose() * hex8::shape(hex8::gaussPoint(q)));
-    for (int q = 0; q < np; ++q) pointScale[e * static_cast<std::size_t>(np) + static_cast<std::size_t>(q)] = 1.0 - profile(materialPoint(e, q));
+    const hex8::Shape N = hex8::shape(xi);
+    if (!profile.nodalFem) return 1.0 - profile(Vec3(X.transpose() * N));
+    double w = 0.0;
+    for (int a = 0; a < 8; ++a) w += N(a) * profile(Vec3(X.row(a).transpose()));
+    return 1.0 - w;
+  };
+  for (std::size_t e = 0; e < ne; ++e) {
+    for (int q = 0; q < 8; ++q) gaussWeight_[8 * e + static_cast<std::size_t>(q)] = fe(e, hex8::gaussPoint(q));
+    for (int q = 0; q < np; ++q)
+      pointScale[e * static_cast<std::size_t>(np) + static_cast<std::size_t>(q)] =
+          fe(e, np == 1 ? Vec3::Zero().eval() : hex8::gaussPoint(q));
   }
   formulation_->setPointScale(std::move(pointScale));
   // Body forces were integrated with the unweighted mass: redo them.

@@ -20,6 +20,7 @@
 #include "cosim/fem/solver/snapshot_writer.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/coupling_forces.hpp"
+#include "cosim/wire/weight_profile.hpp"
 
 namespace cosim::fem {
 
@@ -260,6 +261,11 @@ std::optional<WeightProfile> readArlequin(ParamMap& p) {
   if (profile.axis < 0) a.fail(a.get("axis"), a.path() + ".axis must be x, y or z");
   profile.start = a.number("start");
   profile.end = a.number("end");
+  profile.low = a.number("w_min", 0.0);
+  profile.high = a.number("w_max", 1.0);
+  const std::string where = a.text("fem_weights", "points");
+  if (where != "points" && where != "nodes") a.fail(a.get("fem_weights"), a.path() + ".fem_weights must be points or nodes");
+  profile.nodalFem = where == "nodes";
   a.finish();
   if (const std::string why = profile.problem(); !why.empty()) a.fail(a.node(), a.path() + ": weight profile: " + why);
   return profile;
@@ -432,11 +438,7 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     bool haveProfile = own.has_value();
     WeightProfile profile = own.value_or(WeightProfile{});
     if (context.inputs.hasWeightProfiles() && context.inputs.getWeightProfiles().size() > 0) {
-      const auto wp = context.inputs.getWeightProfiles()[0];
-      profile.kind = wp.getKind().cStr();
-      profile.axis = wp.getAxis();
-      profile.start = wp.getStart();
-      profile.end = wp.getEnd();
+      profile = wire::read(context.inputs.getWeightProfiles()[0]);
       haveProfile = true;
     }
     if (haveProfile) {

@@ -11,6 +11,7 @@
 
 #include "cosim/coupler/analysis/solver_energies.hpp"
 #include "cosim/util/registry.hpp"
+#include "cosim/util/weight_profile.hpp"
 #include "data.capnp.h"
 
 namespace cosim::io {
@@ -51,11 +52,6 @@ class InputAssembler {
     std::span<const std::uint32_t> ids;
     std::span<const double> forces;  // 3 per id
   };
-  struct StagedWeightProfile {  // a WeightProfile (volume.capnp), by value
-    std::string kind;
-    std::uint8_t axis = 0;
-    double start = 0.0, end = 0.0;
-  };
   struct StagedUnitCellJobs {  // a UnitCellJobs (gmh.capnp)
     std::span<const std::uint32_t> cellIds;
     std::span<const double> strainIncrements;  // 9 per cell
@@ -94,7 +90,7 @@ class InputAssembler {
   void stageUnitCellResults(StagedUnitCellResults results) { results_.push_back(results); }
   void stageMesh(StagedMesh mesh) { meshes_.push_back(std::move(mesh)); }
   void stageForces(StagedForces forces) { forces_.push_back(std::move(forces)); }
-  void stageWeightProfile(StagedWeightProfile profile) { profiles_.push_back(std::move(profile)); }
+  void stageWeightProfile(util::WeightProfile profile) { profiles_.push_back(std::move(profile)); }
   void stageHybridParticles(StagedHybridParticles hybrid) { hybridParticles_.push_back(hybrid); }
   void stageHybridForces(StagedHybridForces forces) { hybridForces_.push_back(forces); }
   const std::vector<StagedHybridParticles>& hybridParticles() const { return hybridParticles_; }
@@ -112,7 +108,7 @@ class InputAssembler {
   std::vector<StagedArray> arrays_;
   std::vector<StagedMesh> meshes_;
   std::vector<StagedForces> forces_;
-  std::vector<StagedWeightProfile> profiles_;
+  std::vector<util::WeightProfile> profiles_;  // WeightProfile (volume.capnp), by value
   std::vector<StagedUnitCellJobs> jobs_;
   std::vector<StagedUnitCellResults> results_;
   std::vector<StagedHybridParticles> hybridParticles_;

@@ -56,6 +56,27 @@ struct ParticleCloud {
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
+/// A tensor Gauss-Legendre rule of n^3 points on one hex8 element: points,
+/// shape values there and weights times det J.
+struct ElementRule {
+  std::vector<Eigen::Vector3d> x;
+  std::vector<std::array<double, 8>> N;
+  std::vector<double> w;
+};
+ElementRule elementRule(const hex8::Corners& X, int n);
+
+/// How Pi smooths: kernel null for Eq. 19 (c = 0), else Eq. 18 with width c,
+/// integrated per element by `points`^3 Gauss points (0: about four points
+/// per width, which resolves the kernel; 2: the FE's own rule, as the
+/// published runs did).
+struct Smoothing {
+  const CgKernel* kernel = nullptr;
+  double width = 0.0;
+  int points = 0;
+};
+
+/// Cheng Eq. 27 over the zone: one row per zone node.
+SparseMatrix homogenisation(const ZoneMesh& zone, const ParticleCloud& particles, const Smoothing& smoothing);
 /// Cheng Eq. 27, c = 0: psi_i at each particle's natural coordinates (Eq. 19).
 /// Particles outside every zone element are not coupled (zero column).
 SparseMatrix homogenisationDirac(const ZoneMesh& zone, const ParticleCloud& particles);
@@ -66,13 +87,31 @@ SparseMatrix homogenisationCg(const ZoneMesh& zone, const ParticleCloud& particl
 /// The zone matrix M_ij = int_{Omega^C} psi_i psi_j dV (Cheng Eq. 32) from
 /// fem_solver's (global i, global j, value) triplets, in zone-local indices.
 SparseMatrix zoneMatrix(const ZoneMesh& zone, std::span<const double> triplets, const std::string& what);
+/// The row-sum lumped form of M, diag(sum_j M_ij) = diag(int psi_i dV): the
+/// penalty matrix of the published runs (shared/reference/cheng2022), which
+/// ties each node to its own homogenised displacement only.
+SparseMatrix rowSumLumped(const SparseMatrix& m);
+
+/// The per-element form of the penalty operators (the published runs,
+/// shared/reference/cheng2022): every element e holds its own homogenised
+/// field, u^DE_(e,k) = sum_a Pi^e_ka u_a over the particles of e (Eq. 19) or
+/// near e (Eq. 18 over e alone), each row normalised to one, and its own
+/// gap u^DE_(e,k) - u^FE_k, penalised with the element's M^e (or its row
+/// sums). Rows are the (element, corner) pairs some particle reaches;
+/// `gather` picks each row's FE node. Elements without particles are not coupled.
+struct ElementPenalty {
+  SparseMatrix pi, gather, matrix;
+};
+ElementPenalty elementPenalty(const ZoneMesh& zone, const ParticleCloud& particles, const Smoothing& smoothing, bool lumped);
 
 /// The penalty coupling of Cheng Eqs. 29-32 for fixed Pi, M and epsilon.
 class PenaltyCoupling {
  public:
-  PenaltyCoupling(SparseMatrix pi, SparseMatrix zoneMatrix, double epsilon);
+  /// Rows of pi and the matrix are the zone's nodes (gather empty: the
+  /// identity), or the rows `gather` maps onto them (ElementPenalty).
+  PenaltyCoupling(SparseMatrix pi, SparseMatrix zoneMatrix, double epsilon, SparseMatrix gather = {});
   struct Forces {
-    Eigen::MatrixX3d uDe, uFe;         // nodal u^DE = Pi u_particles (Eq. 28), u^FE
+    Eigen::MatrixX3d uDe, uFe;         // per row: u^DE = Pi u_particles (Eq. 28), u^FE = G u_nodes
     Eigen::MatrixX3d onNodes;          // f_i = eps sum_j M_ij (u^DE_j - u^FE_j) (Eqs. 31, 38)
     Eigen::MatrixX3d onParticles;      // f_a = -sum_i Pi_ia f_i (Eqs. 32, 39)
     double energy = 0.0;               // eps/2 int |u^DE - u^FE|^2 dV (Eq. 29)
@@ -94,7 +133,7 @@ class PenaltyCoupling {
   Frequencies maxFrequencies(const std::vector<double>& nodeMasses, const std::vector<double>& particleMasses) const;
 
  private:
-  SparseMatrix pi_, m_;
+  SparseMatrix pi_, m_, gather_;
   double epsilon_;
 };
 
