@@ -11,11 +11,16 @@
 //                 the exported velocities (both solvers may advance at once);
 //   interpolated: DEM gets the surface at the previous FEM state and the secant
 //                 velocity to the new one, so it sweeps exactly from one FEM
-//                 state to the next; needs a schedule that advances FEM first;
+//                 state to the next after FEM advanced first; with DEM first
+//                 (order: fine-first) the wall lags one step, as in the
+//                 published runs of Cheng 2022;
 //   smoothed:     as extrapolated, but DEM feels the CG-smoothed surface and the
 //                 forces return through the same weights, so the contact does
 //                 equal work on both sides (SmoothedSurface; c > 0 only, the
 //                 point form at c = 0).
+// cg_points: the kernel of Eqs. 14-15 is integrated over the surface
+// quadrature (the paper's text) or over the volume Gauss points of an FE
+// coupling zone (`volume_zone`, the published runs' code).
 #include <cmath>
 #include <ostream>
 #include <sstream>
@@ -75,6 +80,12 @@ class SurfaceCoupling final : public Coupling {
     interpolated_ = kinematics == "interpolated";
     // At c = 0 the smoothed wall is the unsmoothed one (G_i -> psi_i).
     smoothed_ = kinematics == "smoothed" && width_ > 0.0;
+    if (m.choice("cg_points", {"surface", "volume"}, "surface") == "volume") {
+      volumeZone_ = m.requireString("volume_zone");
+      if (width_ == 0.0) m.error("cg_points", "volume needs a CG width c > 0 (the point form spreads by the surface)");
+    } else if (m.has("volume_zone")) {
+      m.error("volume_zone", "only read with cg_points: volume");
+    }
     if (kernel_) map_.emplace(*kernel_, width_);
     if (smoothed_) {
       dirac_ = CgKernelRegistry::make("dirac");
@@ -94,7 +105,8 @@ class SurfaceCoupling final : public Coupling {
     out << fem_ << " surface '" << surface_ << "' <-> " << dem_ << " triangle wall; forces by "
         << (kernel_ && !kernel_->isDirac() ? kernel_->name() + " kernel, c = " + std::to_string(width_) + " m (Eqs. 14-15)"
                                            : std::string("point form (Eq. 16)"))
-        << ", wall kinematics " << (interpolated_ ? "interpolated" : smoothed_ ? "smoothed (energy-consistent)" : "extrapolated");
+        << ", wall kinematics " << (interpolated_ ? "interpolated" : smoothed_ ? "smoothed (energy-consistent)" : "extrapolated")
+        << (volumeZone_.empty() ? "" : ", CG over the Gauss points of zone " + volumeZone_);
   }
 
   void exchange(ExchangeContext& ctx) override {
@@ -122,12 +134,29 @@ class SurfaceCoupling final : public Coupling {
                              " (list it under its params coupling.surfaces)");
   }
 
-  std::optional<SurfaceQuadratureView> findQuadrature(proto::CouplingData::Reader fem) const {
+  std::optional<SurfaceQuadratureView> findQuadrature(proto::CouplingData::Reader fem) {
+    if (!volumeZone_.empty()) return volumeQuadrature(fem);
     for (auto q : fem.getQuadratures())
       if (q.getSurface() == surface_)
         return SurfaceQuadratureView{wire::view(q.getPositions()), wire::view(q.getWeights()), q.getNodesPerPoint(),
                                      wire::view(q.getNodeIds()), wire::view(q.getShapeValues())};
     return std::nullopt;
+  }
+
+  /// The Gauss points of the FE zone `volume_zone` (fem_solver's VolumeZone
+  /// arrays, in the current configuration) as the CG quadrature.
+  SurfaceQuadratureView volumeQuadrature(proto::CouplingData::Reader fem) {
+    const auto array = [&](const char* what) {
+      proto::NamedArray::Reader a;
+      if (!wire::findArray(fem.getArrays(), volumeZone_ + "/" + what, a))
+        throw std::runtime_error("coupling '" + name() + "': solver '" + fem_ + "' sent no array '" + volumeZone_ + "/" +
+                                 what + "' (declare the zone under its params.coupling.zones for cg_points: volume)");
+      return wire::view(a.getValues());
+    };
+    const auto nodes = array("qp_nodes");
+    volumeNodes_.resize(nodes.size());
+    for (std::size_t k = 0; k < nodes.size(); ++k) volumeNodes_[k] = static_cast<std::uint32_t>(nodes[k]);
+    return SurfaceQuadratureView{array("qp_positions"), array("qp_weights"), 8, volumeNodes_, array("qp_shapes")};
   }
 
   /// G_i(X_v) of the smoothed wall, from the undeformed surface.
@@ -214,7 +243,8 @@ class SurfaceCoupling final : public Coupling {
     ctx.series->append(name() + "/contacts", static_cast<double>(c.triangleIds.size()));
   }
 
-  std::string fem_, dem_, surface_;
+  std::string fem_, dem_, surface_, volumeZone_;
+  std::vector<std::uint32_t> volumeNodes_;  // the zone's qp_nodes as ids
   std::unique_ptr<CgKernel> kernel_;
   double width_ = 0.0;
   bool interpolated_ = false, smoothed_ = false, mapped_ = false;
