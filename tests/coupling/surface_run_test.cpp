@@ -108,6 +108,31 @@ TEST(SurfaceCouplingRun, SmoothedWallRunsTheScenesScheduleAndBalancesTheForces) 
     EXPECT_NEAR(nodal[k], contact[k], 1e-9 * (1.0 + std::abs(contact[k]))) << "row " << k / 3;
 }
 
+TEST(SurfaceCouplingRun, PaperVariantSpreadsOverTheVolumeGaussPointsAndBalancesTheForces) {
+  // configs/c1/cantilever_surface_paper.yaml for 600 steps (0.055 s): the
+  // lagged wall and the CG over the beam's Gauss points (cg_points: volume)
+  // hand FEM exactly the contact force, row by row.
+  const auto dir = freshDirectory("c1-paper");
+  const auto done = cosim::testing::run({binary("coupler"), "run", sourcePath("configs/c1/cantilever_surface_paper.yaml"), "--out",
+                                         (dir / "run").string(), "--no-progress", "--set", "schedule.end_time=0.0546"},
+                                        240.0);
+  ASSERT_EQ(done.code, 0) << done.out << done.err;
+  auto h5 = io::H5File::openReadOnly(dir / "run" / "coupler.h5");
+  const auto contact = h5.readArray("/series/top/contact_force");
+  const auto nodal = h5.readArray("/series/top/nodal_force");
+  ASSERT_EQ(contact.size(), nodal.size());
+  ASSERT_GT(contact.size(), 3u);
+  for (std::size_t k = 0; k < contact.size(); ++k)
+    EXPECT_NEAR(nodal[k], contact[k], 1e-9 * (1.0 + std::abs(contact[k]))) << "row " << k / 3;
+  // A zone fem_solver does not export is refused at setup, naming it.
+  const auto missing = cosim::testing::run({binary("coupler"), "run", sourcePath("configs/c1/cantilever_surface_paper.yaml"), "--out",
+                                            (dir / "missing").string(), "--no-progress", "--set", "couplings.top.volume_zone=nowhere",
+                                            "--set", "schedule.end_time=0.001"},
+                                           120.0);
+  EXPECT_NE(missing.code, 0);
+  EXPECT_NE((missing.out + missing.err).find("sent no array 'nowhere/"), std::string::npos) << missing.out << missing.err;
+}
+
 TEST(SurfaceCouplingRun, RunReportSharesDoNotOverlapOnOneCpu) {
   // Packed on one CPU, a solver may run its whole step while the coupler is
   // still inside the send. That time belongs to the round trip (between the

@@ -82,7 +82,7 @@ class SurfaceCoupling final : public Coupling {
     smoothed_ = kinematics == "smoothed" && width_ > 0.0;
     if (m.choice("cg_points", {"surface", "volume"}, "surface") == "volume") {
       volumeZone_ = m.requireString("volume_zone");
-      if (width_ == 0.0) m.error("cg_points", "volume needs a CG width c > 0 (the point form spreads by the surface)");
+      if (width_ == 0.0) volumeZone_.clear();  // c = 0: the point form (Eq. 16) for either
     } else if (m.has("volume_zone")) {
       m.error("volume_zone", "only read with cg_points: volume");
     }
