@@ -1,5 +1,6 @@
 #include "cosim/io/h5_file.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace cosim::io {
@@ -182,16 +183,82 @@ std::vector<std::string> H5File::children(const std::string& group) const {
   return names;
 }
 
-void H5File::remove(const std::string& path) {
-  // Groups kept open under the path would still take writes, into the unlinked object.
-  for (auto it = groups_.begin(); it != groups_.end();)
-    if (it->first == path || it->first.rfind(path + "/", 0) == 0) {
-      H5Gclose(it->second);
-      it = groups_.erase(it);
-    } else {
-      ++it;
+namespace {
+// Fixed-size attributes (doubles, fixed strings: all this file writes) copied byte for byte.
+herr_t copyAttribute(hid_t from, const char* name, const H5A_info_t*, void* to) {
+  const hid_t a = H5Aopen(from, name, H5P_DEFAULT);
+  if (a < 0) return -1;
+  const hid_t type = H5Aget_type(a), space = H5Aget_space(a);
+  std::vector<char> bytes(std::max<std::size_t>(H5Aget_storage_size(a), H5Tget_size(type)));
+  herr_t status = H5Aread(a, type, bytes.data());
+  const hid_t b = status < 0 ? -1 : H5Acreate2(*static_cast<hid_t*>(to), name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  status = b < 0 ? -1 : H5Awrite(b, type, bytes.data());
+  if (b >= 0) H5Aclose(b);
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Aclose(a);
+  return status;
+}
+
+struct TreeCopy {
+  hid_t from, to;
+  const std::vector<std::string>& drop;
+  const std::filesystem::path& file;
+
+  bool dropped(const std::string& path) const { return std::find(drop.begin(), drop.end(), path) != drop.end(); }
+  bool holdsDropped(const std::string& path) const {
+    return std::any_of(drop.begin(), drop.end(), [&](const std::string& d) { return d.rfind(path + "/", 0) == 0; });
+  }
+  void attributes(const std::string& object) const {
+    const hid_t src = H5Oopen(from, object.c_str(), H5P_DEFAULT);
+    hid_t dst = H5Oopen(to, object.c_str(), H5P_DEFAULT);
+    const herr_t status = src < 0 || dst < 0 ? -1 : H5Aiterate2(src, H5_INDEX_NAME, H5_ITER_INC, nullptr, copyAttribute, &dst);
+    if (src >= 0) H5Oclose(src);
+    if (dst >= 0) H5Oclose(dst);
+    if (status < 0) fail(file, "cannot copy the attributes of " + object + " into the rewritten file");
+  }
+  // Copies the members of `group` but the dropped ones; a member that holds a
+  // dropped object is made anew and filled the same way.
+  void members(const std::string& group) const {
+    std::vector<std::string> names;
+    const hid_t g = check(H5Gopen2(from, group.c_str(), H5P_DEFAULT), file, "no group " + group);
+    H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectNames, &names);
+    H5Gclose(g);
+    for (const std::string& name : names) {
+      const std::string path = (group == "/" ? "" : group) + "/" + name;
+      if (dropped(path)) continue;
+      if (holdsDropped(path)) {
+        H5Gclose(check(H5Gcreate2(to, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), file,
+                       "cannot create group " + path + " in the rewritten file"));
+        attributes(path);
+        members(path);
+      } else if (H5Ocopy(from, path.c_str(), to, path.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) {
+        fail(file, "cannot copy " + path + " into the rewritten file (damaged before the checkpoint it resumes from?)");
+      }
     }
-  if (H5Ldelete(file_, path.c_str(), H5P_DEFAULT) < 0) fail(path_, "cannot remove " + path);
+  }
+};
+}  // namespace
+
+void H5File::rewriteWithout(const std::vector<std::string>& drop) {
+  const std::filesystem::path original = path_;
+  const std::filesystem::path fresh = original.string() + ".rewrite";
+  close();
+  try {
+    H5File from = openReadOnly(original);
+    H5File to = create(fresh);
+    TreeCopy copy{from.id(), to.id(), drop, original};
+    copy.attributes("/");
+    copy.members("/");
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(fresh, ignored);
+    throw;
+  }
+  std::error_code ec;
+  std::filesystem::rename(fresh, original, ec);
+  if (ec) fail(original, "cannot replace the file by its rewritten copy: " + ec.message());
+  *this = openForAppend(original);
 }
 
 std::vector<std::size_t> H5File::shape(const std::string& path) const {

@@ -50,17 +50,19 @@ void XdmfTimeSeries::addStep(std::uint64_t step, double time, std::size_t points
 }
 
 void XdmfTimeSeries::resumeAt(H5File& file, std::uint64_t step) {
+  // The snapshots after the checkpoint are written again; the file is rewritten
+  // without them (a killed writer may have left them unreadable, see H5File::rewriteWithout).
+  std::vector<std::string> later;
+  for (const std::string& name : file.children("/snapshots"))
+    if (!name.empty() && name.find_first_not_of("0123456789") == std::string::npos && std::stoull(name) > step)
+      later.push_back("/snapshots/" + name);
+  file.rewriteWithout(later);
   steps_.clear();
   for (const std::string& name : file.children("/snapshots")) {
     if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
-    const std::uint64_t k = std::stoull(name);
     const std::string group = "/snapshots/" + name;
-    if (k > step) {
-      file.remove(group);
-      continue;
-    }
     const auto shape = file.exists(group + "/" + geometry_) ? file.shape(group + "/" + geometry_) : std::vector<std::size_t>{};
-    steps_.push_back({k, file.attribute(group, "time", 0.0), shape.empty() ? 0 : shape[0]});
+    steps_.push_back({std::stoull(name), file.attribute(group, "time", 0.0), shape.empty() ? 0 : shape[0]});
   }
   std::sort(steps_.begin(), steps_.end(), [](const Step& a, const Step& b) { return a.step < b.step; });
   grids_.clear();

@@ -96,8 +96,8 @@ void SnapshotWriter::resumeAt(std::uint64_t step) {
   std::size_t rows = 0;
   if (file_.exists("/series/step"))
     for (double s : file_.readArray("/series/step")) rows += s <= static_cast<double>(step) ? 1 : 0;
+  xdmf_.resumeAt(file_, step);  // rewrites the file: before the series adopt its datasets
   series_->resumeAt(rows);
-  xdmf_.resumeAt(file_, step);
 }
 
 void SnapshotWriter::write(const DemSystem& s) {

@@ -48,8 +48,12 @@ class H5File {
   double attribute(const std::string& object, const std::string& name, double fallback) const;
   /// Names of the links directly under a group (empty when it does not exist).
   std::vector<std::string> children(const std::string& group) const;
-  /// Unlinks a dataset or group (a resumed run drops what it will write again).
-  void remove(const std::string& path);
+  /// Replaces the file by a copy without the objects at `drop` (and below
+  /// them), then reopens it for appending: how a resumed run drops what it
+  /// will write again. Unlinking in place is not enough there: a process
+  /// killed while writing leaves objects whose headers never reached the disk,
+  /// and HDF5 can neither unlink nor reuse those. Open groups are closed.
+  void rewriteWithout(const std::vector<std::string>& drop);
   void flush();
 
  private:
