@@ -5,6 +5,7 @@
   report:KEY[.KEY...]                        any number in run_report.json
   hdf5:FILE:DATASET:REDUCTION                  a dataset of FILE in the run directory, reduced by
                                              max, min, absmax, last, first or mean
+  energy:balance.SOLVER | energy:interface.PD.DEM   conservation of the final energies
   NAME:KEY, NAME@S:KEY                       a named extractor below (scene statistics computed
                                              from the snapshots), its figure KEY; @S: the run was
                                              loaded S times faster than the paper, so the paper's
@@ -20,6 +21,7 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "bench", "coupled"))
+sys.path.insert(0, os.path.join(ROOT, "bench", "gmh"))
 
 
 class Missing(Exception):
@@ -80,19 +82,25 @@ _cache = {}
 
 def _from_extractor(res, source, key):
     name, _, scale = source.partition("@")
-    if (source, res["out"]) not in _cache:
+    others = tuple(res.get("with", ()))
+    if (source, res["out"], others) not in _cache:
         try:
-            _cache[(source, res["out"])] = EXTRACTORS[name](res["out"], float(scale or 1.0))
+            if name in OVER_RUNS:
+                figures = OVER_RUNS[name]((res["out"],) + others, float(scale or 1.0))
+            else:
+                figures = EXTRACTORS[name](res["out"], float(scale or 1.0))
         except (OSError, KeyError, ValueError, IndexError) as e:
             raise Missing("extractor %s found no data (%s: %s)" % (name, e.__class__.__name__, e))
-    figures = _cache[(source, res["out"])]
+        _cache[(source, res["out"], others)] = figures
+    figures = _cache[(source, res["out"], others)]
     if key not in figures:
         raise Missing("extractor %s gave no %s (the run may have stopped before it)" % (name, key))
     return figures[key]
 
 
 def value(where, res):
-    """The number `where` names in the outputs of run result `res` ({out, exit_code, wall_s})."""
+    """The number `where` names in the outputs of run result `res` ({out, exit_code, wall_s}; `with`:
+    the output directories of the other runs an extractor over several runs reads)."""
     source, _, key = where.partition(":")
     if source == "run":
         return float(res[key])
@@ -121,9 +129,34 @@ def check(where):
     name, at, scale = source.partition("@")
     if at and not scale.replace(".", "", 1).isdigit():
         return "the time scale after @ must be a positive number"
-    if source not in ("run", "report", "hdf5") and name not in EXTRACTORS:
-        return "unknown source '%s' (run, report, hdf5, %s)" % (source, ", ".join(sorted(EXTRACTORS)))
+    if source not in ("run", "report", "hdf5") and name not in EXTRACTORS and name not in OVER_RUNS:
+        return "unknown source '%s' (run, report, hdf5, %s)" % (source, ", ".join(sorted(set(EXTRACTORS) | set(OVER_RUNS))))
     return None
+
+
+# --- conservation of the run's final energies (run_report.json final_energies_J) ---
+
+# the terms a solver's work goes into; DEM's translational and rotational energies are parts of its kinetic
+STORED = ("kinetic", "strain", "elastic", "potential", "dissipated", "viscous_dissipated", "hourglass")
+
+
+def energy_figures(run, scale):
+    """balance.SOLVER: |W_ext - sum of STORED| / |W_ext| for each solver that reports external work;
+    interface.PD.DEM: |W_ext(PD) + drive work(DEM)| / |W_ext(PD)|, the work the contact forces do
+    on the PD body against the work DEM's driven (hybrid) particles receive, for every such pair."""
+    energies = _report({"out": run}).get("final_energies_J", {})
+    solvers = {k.partition(".")[0] for k in energies}
+    out = {}
+    for a in solvers:
+        work = energies.get(a + ".external_work")
+        if not work:
+            continue
+        stored = sum(energies.get("%s.%s" % (a, term), 0.0) for term in STORED)
+        out["balance." + a] = abs(work - stored) / abs(work)
+        for b in solvers - {a}:
+            if energies.get(b + ".drive_work"):
+                out["interface.%s.%s" % (a, b)] = abs(work + energies[b + ".drive_work"]) / abs(work)
+    return out
 
 
 # --- named extractors: statistics of the H3-H5 snapshots (Hartmann 2022 Sec. 5) ---
@@ -275,4 +308,26 @@ def l1_figures(run, scale):
     return out
 
 
-EXTRACTORS = {"l1": l1_figures, "l2": l2_figures, "c2": c2_figures, "h3": h3_figures, "h4": h4_figures, "h5": h5_figures}
+# --- scenes L3-L5 (Liu 2016 Secs. 3.3-3.5): the bench analyses' figures ---
+
+def l3_figures(run, scale):
+    """Element 9's loops, porosity and coordination (bench/gmh/l3_wave_column.py)."""
+    import l3_wave_column
+    return l3_wave_column.figures(run)
+
+
+def l4_figures(run, scale):
+    """Peak, softening, dilation and the band at 12 % (bench/gmh/l4_shear_band.py)."""
+    import l4_shear_band
+    return l4_shear_band.figures(run)
+
+
+def l5_figures(runs, scale):
+    """One mode's curves on several meshes: their spread, and the first run's peak (bench/gmh/l5_biaxial.py)."""
+    import l5_biaxial
+    return l5_biaxial.figures(list(runs))
+
+
+# extractors of one run directory; OVER_RUNS: of the figure's run and its `with` runs
+OVER_RUNS = {"l5": l5_figures}
+EXTRACTORS = {"energy": energy_figures, "l3": l3_figures, "l4": l4_figures, "l1": l1_figures, "l2": l2_figures, "c2": c2_figures, "h3": h3_figures, "h4": h4_figures, "h5": h5_figures}

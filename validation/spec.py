@@ -64,6 +64,9 @@ def _check_run(path, name, run, root):
     run.setdefault("set", [])
     run.setdefault("conditions", [])
     run.setdefault("needs", [])
+    for key in ("set", "conditions"):  # lists of lists (YAML anchors shared by runs) are joined
+        if isinstance(run[key], list):
+            run[key] = [s for item in run[key] for s in (item if isinstance(item, list) else [item])]
     for key in ("set", "conditions", "needs"):
         if not isinstance(run[key], list) or not all(isinstance(s, str) for s in run[key]):
             _fail(path, where + key, "must be a list of strings")
@@ -81,7 +84,7 @@ def _check_figure(path, i, fig, runs):
     if not isinstance(fig, dict):
         _fail(path, "figures[%d]" % i, "must be a map")
     unknown = set(fig) - {"figure", "run", "value", "unit", "paper", "source", "definition", "tolerance", "scale",
-                          "per", "note", "headline"}
+                          "per", "with", "note", "headline"}
     if unknown:
         _fail(path, where + sorted(unknown)[0], "unknown key")
     for key in ("figure", "run", "unit", "source", "definition"):
@@ -100,6 +103,13 @@ def _check_figure(path, i, fig, runs):
         problem = extract.check(per["value"])
         if problem:
             _fail(path, where + "per.value", problem)
+    if "with" in fig:  # a figure of several runs: the extractor reads the others' outputs too
+        others = fig["with"]
+        if not isinstance(others, list) or not others or not all(o in runs for o in others):
+            _fail(path, where + "with", "takes a list of runs of this scene")
+        if fig.get("value", "").partition(":")[0].partition("@")[0] not in extract.OVER_RUNS:
+            _fail(path, where + "with", "only the extractors over several runs take it (%s)"
+                  % ", ".join(sorted(extract.OVER_RUNS)))
     if "paper" not in fig:
         _fail(path, where + "paper", "missing (a number, or a text where the paper gives no number)")
     tol = _need(fig, "tolerance", dict, path, where)
@@ -121,7 +131,7 @@ def load(path, root):
         raise SceneError("%s: %s" % (os.path.relpath(path), e))
     if not isinstance(sc, dict):
         _fail(path, "(top)", "must be a map")
-    unknown = set(sc) - {"scene", "title", "paper", "runs", "figures", "plots", "notes", "prepare"}
+    unknown = set(sc) - {"scene", "title", "paper", "runs", "figures", "plots", "notes", "prepare", "definitions"}
     if unknown:
         _fail(path, sorted(unknown)[0], "unknown key")
     if _need(sc, "scene", str, path, "") not in SCENE_ORDER:

@@ -200,6 +200,13 @@ def stop_message(res):
     return message[:300] or "see " + os.path.relpath(res["log"], ROOT)
 
 
+def _result_of(results, sc, run):
+    res = results.get((sc["scene"], run))
+    if res is None:
+        raise extract.Missing("run %s of this figure did not run" % run)
+    return res
+
+
 def rows_for(sc, tier, results):
     rows = []
     for fig in sc["figures"]:
@@ -230,6 +237,8 @@ def rows_for(sc, tier, results):
             continue
         row["wall_s"] = round(res["wall_s"], 2)
         try:
+            if "with" in fig:
+                res = dict(res, **{"with": [_result_of(results, sc, other)["out"] for other in fig["with"]]})
             value = extract.value(fig["value"], res)
             if "per" in fig:  # a ratio: this value over another run's (or another of this run's)
                 other = results.get((sc["scene"], fig["per"]["run"]))

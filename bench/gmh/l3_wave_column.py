@@ -36,20 +36,62 @@ def loop_integral(stress, strain):
     return float(np.sum(0.5 * (stress[1:] + stress[:-1]) * np.diff(strain)))
 
 
+def cycle_loops(d, frequency):
+    """Per load cycle of the followed element: (cycle, rows, complete, loop area, work).
+
+    The rows of a cycle are closed with the first row of the next one where
+    there is one; the loop area is oint sigma12 d eps12, the work oint sigma : d eps
+    over all components [J/m^3]. A cycle is complete when its rows reach its end.
+    """
+    period = 1.0 / frequency
+    t = d["time"]
+    n = len(t)
+    cycle = np.floor((t - 1e-12) / period).astype(int)
+    out = []
+    for cy in range(int(cycle.max()) + 1):
+        idx = np.where(cycle == cy)[0]
+        if len(idx) < 2:
+            continue
+        idx = np.append(idx, idx[-1] + 1) if idx[-1] + 1 < n else idx
+        complete = t[idx[-1]] >= (cy + 1) * period - 1e-9
+        area = loop_integral(d["sigma"][idx, 0, 1], d["eps"][idx, 0, 1])
+        work = sum(loop_integral(d["sigma"][idx, i, j], d["eps"][idx, i, j]) for i in range(3) for j in range(3))
+        out.append((cy, idx, complete, area, work))
+    return out
+
+
+def figures(run, element=8, fem_file="column.h5", coupling="cells", frequency=1.0e4):
+    """The scene's figures of one run (validation/extract.py, `l3`): mean loop
+    area per complete cycle [J/m^3], the cell's porosity and coordination at
+    setup, their ranges over the run and the number of complete cycles."""
+    d, first = follow(run, fem_file, coupling, element)
+    if len(d["step"]) == 0:
+        return {}
+    areas = [area for _, _, complete, area, _ in cycle_loops(d, frequency) if complete]
+    out = {"complete_cycles": float(len(areas)),
+           "coordination_start": float(first["coordination"]), "porosity_start": float(first["porosity"]),
+           "coordination_min": float(d["coordination"].min()), "coordination_max": float(d["coordination"].max()),
+           "porosity_range": float(np.ptp(d["porosity"]))}
+    if areas:
+        out["loop_area_mean"] = float(np.mean(areas))
+        out["loop_area_min"] = float(min(areas))
+    return out
+
+
 def follow(run, fem_file, coupling, element):
     fem = open_h5(f"{run}/{fem_file}")
     coords = fem["mesh/coordinates"][()]
     topology = fem["mesh/topology"][()].astype(int)
     if not 0 <= element < len(topology):
-        sys.exit(f"element {element} is not in the mesh ({len(topology)} elements)")
+        raise ValueError(f"element {element} is not in the mesh ({len(topology)} elements)")
     steps, snaps = snapshots(fem)
     if not steps:
-        sys.exit(f"{run}/{fem_file} has no snapshots")
+        raise ValueError(f"{run}/{fem_file} has no snapshots")
     series = open_h5(f"{run}/coupler.h5")["series"]
     cells = cell_series(series, coupling)
     where = np.where(cells["ids"] == element)[0]
     if len(where) != 1:
-        sys.exit(f"cell {element} is not in the coupler series (cells {cells['ids'].tolist()})")
+        raise ValueError(f"cell {element} is not in the coupler series (cells {cells['ids'].tolist()})")
     c = int(where[0])
     rows = cells["stress"].shape[0]
     out = {k: [] for k in ("step", "time", "eps", "sigma", "porosity", "coordination", "fem_sigma")}
@@ -84,7 +126,10 @@ def main():
     ap.add_argument("--every", type=int, default=50, help="print every N-th coarse step")
     ap.add_argument("--png", default=None, help="figure file (default RUN_DIR/l3_element<id>.png)")
     a = ap.parse_args()
-    d, first = follow(a.run, a.fem, a.coupling, a.element)
+    try:
+        d, first = follow(a.run, a.fem, a.coupling, a.element)
+    except ValueError as e:
+        sys.exit(str(e))
     n = len(d["step"])
     if n == 0:
         sys.exit("no coarse step with both a snapshot and a cell answer")
@@ -112,22 +157,12 @@ def main():
           f"all = oint sigma : d eps over all components) [J/m^3 = Pa]:")
     print(f"{'cycle':>5} {'eps12 range':>22} {'sigma12 range [kPa]':>22} {'sigma11 range [kPa]':>22} "
           f"{'loop area':>10} {'2 x area':>10} {'all':>10}")
-    cycle = np.floor((t - 1e-12) / period).astype(int)
-    areas = []
-    for cy in range(int(cycle.max()) + 1):
-        idx = np.where(cycle == cy)[0]
-        if len(idx) < 2:
-            continue
-        # close the cycle with the first point of the next one, where there is one
-        idx = np.append(idx, idx[-1] + 1) if idx[-1] + 1 < n else idx
-        complete = t[idx[-1]] >= (cy + 1) * period - 1e-9
-        area = loop_integral(s12[idx], e12[idx])
-        work = sum(loop_integral(d["sigma"][idx, i, j], d["eps"][idx, i, j]) for i in range(3) for j in range(3))
-        if complete:
-            areas.append(area)
+    loops = cycle_loops(d, a.frequency)
+    for cy, idx, complete, area, work in loops:
         print(f"{cy:>5} {e12[idx].min():>10.3e} {e12[idx].max():>10.3e} {s12[idx].min() / 1e3:>10.2f} "
               f"{s12[idx].max() / 1e3:>10.2f} {s11[idx].min() / 1e3:>10.2f} {s11[idx].max() / 1e3:>10.2f} "
               f"{area:>10.2f} {2 * area:>10.2f} {work:>10.2f}{'' if complete else '  (incomplete)'}")
+    areas = [area for _, _, complete, area, _ in loops if complete]
     if areas:
         print(f"loop area per complete cycle: mean {np.mean(areas):.2f} J/m^3 over {len(areas)} cycles "
               f"(min {min(areas):.2f}, max {max(areas):.2f}); shear work dissipated 2 x area = {2 * np.mean(areas):.2f} J/m^3")

@@ -35,22 +35,17 @@ def row_shear(disp, ys, layers):
     return np.diff(ux) / np.diff(ys)
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("run")
-    ap.add_argument("--at", type=float, default=0.12)
-    ap.add_argument("--weak-row", type=int, default=9)
-    ap.add_argument("--every", type=int, default=10, help="print every N-th snapshot")
-    a = ap.parse_args()
-    block = open_h5(f"{a.run}/block.h5")
+def response(run):
+    """Per snapshot of RUN_DIR/block.h5: (step, gamma, tau, p, porosity, Z, row shear
+    profile), with the node layers' heights."""
+    block = open_h5(f"{run}/block.h5")
     coords = block["mesh/coordinates"][()]
     ys, layers = node_layers(coords)
     height = ys[-1] - ys[0]
     steps, snaps = snapshots(block)
-    series = open_h5(f"{a.run}/coupler.h5")["series"]
+    series = open_h5(f"{run}/coupler.h5")["series"]
     porosity = series["cells/mean_porosity"][()]
     coordination = series["cells/mean_coordination"][()]
-
     rows = []
     for s, g in zip(steps, snaps):
         disp = g["displacement"][()]
@@ -60,6 +55,50 @@ def main():
         p = -stress[:, :3].sum(axis=1).mean() / 3.0
         k = series_row(s, len(porosity))
         rows.append((s, gamma, tau, p, porosity[k], coordination[k], row_shear(disp, ys, layers)))
+    return rows, ys
+
+
+def band(rows, ys, at):
+    """The snapshot nearest nominal strain `at`, its row profile, the rows above
+    the half maximum and the band's thickness [m]."""
+    gammas = np.array([r[1] for r in rows])
+    k = int(np.argmin(np.abs(gammas - at)))
+    prof = rows[k][6]
+    inside = prof > 0.5 * (prof.min() + prof.max())
+    return k, prof, inside, float(np.diff(ys)[inside].sum())
+
+
+def figures(run, at=0.12):
+    """The scene's figures of one run (validation/extract.py, `l4`): nominal shear
+    strain at the peak [%], softening from the peak to the end [%], dilation
+    (porosity change), band thickness at `at` [mm] (absent when the run ended
+    before it), the band's row and the height of its middle [mm]."""
+    rows, ys = response(run)
+    if not rows:
+        return {}
+    taus = np.array([r[2] for r in rows])
+    gammas = np.array([r[1] for r in rows])
+    peak = int(np.argmax(taus))
+    out = {"peak_gamma_pct": float(100 * gammas[peak]), "peak_tau_kPa": float(taus[peak] / 1e3),
+           "softening_pct": float(100 * (taus[-1] - taus[peak]) / taus[peak]),
+           "dilation": float(rows[-1][4] - rows[0][4]), "end_gamma_pct": float(100 * gammas[-1])}
+    if gammas[-1] >= at - 0.005:
+        _, prof, _, thickness = band(rows, ys, at)
+        out["band_mm"] = 1e3 * thickness
+        top = int(np.argmax(prof))
+        out["band_row"] = float(top)
+        out["band_height_mm"] = float(1e3 * 0.5 * (ys[top] + ys[top + 1]))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("run")
+    ap.add_argument("--at", type=float, default=0.12)
+    ap.add_argument("--weak-row", type=int, default=9)
+    ap.add_argument("--every", type=int, default=10, help="print every N-th snapshot")
+    a = ap.parse_args()
+    rows, ys = response(a.run)
     if not rows:
         sys.exit(f"{a.run}/block.h5 has no snapshots")
 
@@ -78,19 +117,15 @@ def main():
 
     if gammas[-1] < a.at:
         print(f"\nthe run ended at gamma = {gammas[-1]:.4f}, before {a.at}: band at the last snapshot")
-    at = int(np.argmin(np.abs(gammas - a.at)))
-    prof = rows[at][6]
-    h = np.diff(ys)
-    mid = 0.5 * (prof.min() + prof.max())
-    band = prof > mid
+    at, prof, inside, thickness = band(rows, ys, a.at)
     print(f"\nshear strain du_x/dy per element row at gamma = {gammas[at]:.4f} (step {rows[at][0]}), bottom row first:")
-    for j, (g, inside) in enumerate(zip(prof, band)):
+    for j, (g, hit) in enumerate(zip(prof, inside)):
         mark = " <- weakened cell's row" if j == a.weak_row else ""
-        print(f"  row {j:>2} y = {1e3 * ys[j]:6.1f}-{1e3 * ys[j + 1]:6.1f} mm  {g:8.4f} {'#' if inside else ' '}{mark}")
+        print(f"  row {j:>2} y = {1e3 * ys[j]:6.1f}-{1e3 * ys[j + 1]:6.1f} mm  {g:8.4f} {'#' if hit else ' '}{mark}")
     top = int(np.argmax(prof))
     print(f"band: largest in row {top} (y = {1e3 * 0.5 * (ys[top] + ys[top + 1]):.1f} mm, weakened row "
-          f"{a.weak_row}); thickness (rows above the half maximum) {1e3 * h[band].sum():.1f} mm "
-          f"({int(band.sum())} rows); row strain max / mean {prof.max() / max(prof.mean(), 1e-30):.2f}")
+          f"{a.weak_row}); thickness (rows above the half maximum) {1e3 * thickness:.1f} mm "
+          f"({int(inside.sum())} rows); row strain max / mean {prof.max() / max(prof.mean(), 1e-30):.2f}")
 
 
 if __name__ == "__main__":

@@ -58,7 +58,7 @@ def load(run):
         sig.append(syy[-1].mean())
         disps.append(d)
     if not eps:
-        sys.exit(f"{run}/block.h5 has no snapshots after step 0")
+        raise ValueError(f"{run}/block.h5 has no snapshots after step 0")
     return {"coords": coords, "topo": topo, "eps": np.array(eps), "sig": np.array(sig), "disp": disps, "syy": syy,
             "hourglass_share": hourglass_share(run)}
 
@@ -134,6 +134,34 @@ def spread(runs, start, end):
     return float(np.sqrt(np.mean(s ** 2))), float(s.max())
 
 
+def mode_spread(group, end):
+    """The latest peak strain of one mode's runs, and the spread (RMS, max) from it
+    to `end` and over the whole common range."""
+    for r in group:
+        r["peak_eps"] = r["eps"][int(np.argmax(r["sig"]))]
+    start = max(r["peak_eps"] for r in group)
+    return start, spread(group, start, end), spread(group, max(r["eps"][0] for r in group), end)
+
+
+def figures(dirs):
+    """The scene's figures of one mode on several meshes (validation/extract.py, `l5`):
+    the spread of the curves from the latest peak to the shortest run's end and over
+    the whole range [% of the mean peak], and the first run's peak stress [kPa],
+    peak strain and softening to its end [%]."""
+    group = [load(d) for d in dirs]
+    end = min(r["eps"][-1] for r in group)
+    start, post, whole = mode_spread(group, end)
+    first = group[0]
+    p = int(np.argmax(first["sig"]))
+    out = {"peak_kPa": float(first["sig"][p] / 1e3), "peak_eps_pct": float(100 * first["eps"][p]),
+           "softening_pct": float(100 * (first["sig"][-1] - first["sig"][p]) / first["sig"][p]),
+           "end_eps_pct": float(100 * end), "meshes": float(len(group))}
+    if len(group) > 1 and end > start:
+        out.update(post_peak_spread_pct=100 * post[1], post_peak_spread_rms_pct=100 * post[0],
+                   whole_spread_pct=100 * whole[1])
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("runs", nargs="+", help="MODE:MESH=DIR")
@@ -147,7 +175,10 @@ def main():
         mode, _, mesh = label.partition(":")
         if not path or not mesh:
             sys.exit(f"bad run '{spec}': expected MODE:MESH=DIR")
-        r = load(path)
+        try:
+            r = load(path)
+        except ValueError as e:
+            sys.exit(str(e))
         r.update(mode=mode, mesh=mesh)
         runs[label] = r
 
@@ -182,8 +213,7 @@ def main():
         group = [r for r in runs.values() if r["mode"] == mode]
         if len(group) < 2:
             continue
-        start = max(r["peak_eps"] for r in group)
-        post, whole = spread(group, start, end), spread(group, max(r["eps"][0] for r in group), end)
+        start, post, whole = mode_spread(group, end)
         result[mode] = (post[1], whole[1])
         print(f"  {mode:>9}: from the latest peak (eps {start:.4f}) RMS {100 * post[0]:.2f} %, max {100 * post[1]:.2f} %;"
               f" whole range RMS {100 * whole[0]:.2f} %, max {100 * whole[1]:.2f} % ({len(group)} meshes)")

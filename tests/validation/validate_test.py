@@ -17,7 +17,11 @@ import unittest
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = sys.argv.pop(1) if len(sys.argv) > 1 else os.path.join(ROOT, "build", "bin")
 sys.path.insert(0, os.path.join(ROOT, "validation"))
+sys.path.insert(0, os.path.join(ROOT, "bench", "gmh"))
+import extract  # noqa: E402
 import render  # noqa: E402
+import spec  # noqa: E402
+import validate  # noqa: E402
 
 SCENE = """
 scene: C1
@@ -126,6 +130,75 @@ class ValidateRunner(unittest.TestCase):
             self.assertEqual(rows[1]["status"], "deviates")  # the exit code figure itself
             self.assertEqual(rows[0]["status"], "deviates")
             self.assertIn("exit 2", rows[0]["note"])
+
+    def test_a_figure_over_several_runs_reads_each_of_them(self):
+        # `with` hands the other runs' directories to an extractor over several runs
+        seen = []
+
+        def over(runs, scale):
+            seen.append(tuple(runs))
+            return {"count": float(len(runs))}
+        extract.OVER_RUNS["test_over"] = over
+        try:
+            sc = {"scene": "C1", "runs": {"a": {"tiers": ["standard"], "config": "c", "set": [], "conditions": []},
+                                          "b": {"tiers": ["standard"], "config": "c", "set": [], "conditions": []}},
+                  "figures": [{"figure": "f", "run": "a", "with": ["b"], "value": "test_over:count", "unit": "-",
+                               "paper": 2, "source": "s", "definition": "d", "tolerance": {"abs": 0}}]}
+            results = {("C1", r): {"out": "/runs/" + r, "exit_code": 0, "wall_s": 1.0, "log": "/runs/%s.log" % r}
+                       for r in ("a", "b")}
+            rows = validate.rows_for(sc, "standard", results)
+            self.assertEqual(seen, [("/runs/a", "/runs/b")])
+            self.assertEqual((rows[0]["ours"], rows[0]["status"]), (2.0, "reproduced"))
+            del results[("C1", "b")]
+            rows = validate.rows_for(sc, "standard", results)
+            self.assertEqual(rows[0]["status"], "deviates")
+            self.assertIn("run b of this figure did not run", rows[0]["note"])
+        finally:
+            del extract.OVER_RUNS["test_over"]
+
+    def test_with_is_refused_for_an_extractor_of_one_run(self):
+        with tempfile.TemporaryDirectory() as work:
+            p, _ = run_validate(SCENE.replace("TOL", "0").replace("    value: report:exchanges",
+                                                                   "    with: [later]\n    value: report:exchanges"), work)
+            self.assertEqual(p.returncode, 2)
+            self.assertIn("figures[0].with: only the extractors over several runs take it", p.stderr)
+
+    def test_lists_of_overrides_are_joined(self):
+        # runs share override lists through YAML anchors: a list of lists is one list
+        with tempfile.TemporaryDirectory() as work:
+            path = os.path.join(work, "c1.yaml")
+            with open(path, "w") as f:
+                f.write(SCENE.replace("TOL", "0").replace("set: [schedule.end_time=0.01]",
+                                                          "set: [[schedule.end_time=0.01, schedule.dt=1.0e-3], a=1]"))
+            sc = spec.load(path, ROOT)
+            self.assertEqual(sc["runs"]["pair"]["set"], ["schedule.end_time=0.01", "schedule.dt=1.0e-3", "a=1"])
+
+    def test_the_energy_balance_is_read_from_the_final_energies(self):
+        energies = {"pd.external_work": 100.0, "pd.kinetic": 10.0, "pd.strain": 89.0,
+                    "dem.external_work": 50.0, "dem.elastic": 40.0, "dem.kinetic": 10.0, "dem.translational": 10.0,
+                    "dem.drive_work": -99.5}
+        with tempfile.TemporaryDirectory() as run:
+            with open(os.path.join(run, "run_report.json"), "w") as f:
+                json.dump({"final_energies_J": energies}, f)
+            got = extract.energy_figures(run, 1.0)
+        self.assertAlmostEqual(got["balance.pd"], 0.01)   # 1 J of 100 J missing
+        self.assertAlmostEqual(got["balance.dem"], 0.0)   # translational is part of kinetic, not counted twice
+        self.assertAlmostEqual(got["interface.pd.dem"], 0.005)
+        self.assertNotIn("interface.dem.pd", got)         # PD has no driven particles
+
+    def test_the_mesh_spread_of_curves(self):
+        import numpy as np
+        import l5_biaxial
+        eps = np.linspace(0, 0.03, 31)
+        curve = 1e6 * (1 + 10 * eps - 300 * eps ** 2)   # a peak at 1.67 %
+        runs = [{"eps": eps, "sig": curve}, {"eps": eps, "sig": 0.9 * curve}]
+        start, post, whole = l5_biaxial.mode_spread(runs, 0.03)
+        self.assertAlmostEqual(start, 0.017, places=3)
+        mean_peak = 0.95 * curve.max()
+        self.assertAlmostEqual(post[1], 0.1 * np.interp(start, eps, curve) / mean_peak, places=3)
+        self.assertAlmostEqual(whole[1], 0.1 * curve.max() / mean_peak, places=2)
+        _, same, _ = l5_biaxial.mode_spread([runs[0], dict(runs[0])], 0.03)
+        self.assertEqual(same, (0.0, 0.0))
 
     def test_doc_tables_are_filled_from_the_rows(self):
         rows = [{"scene": "C1", "figure": "err", "unit": "m", "paper": 0.01, "ours": 0.008, "tolerance": "at most 0.01",
