@@ -7,7 +7,9 @@
 // against), compute_seconds, critical_dt (critical_dt_later from exchange
 // critical_dt_from on; negative ones are reported as given), and die_at /
 // freeze_at / stall_at / fail_at / nan_at (an exchange number; nan_at: 0 is
-// the setup reply). Besides "state" it emits "digest", "mismatches" and,
+// the setup reply). Besides "state" it emits "digest", "mismatches",
+// "history" (a running hash of everything it has received, the state a
+// checkpoint must carry: a skipped or wrong restore changes every later value) and,
 // with count_critical_dt: true, "critical_dt_calls" (how often the host has
 // asked it for its critical step; not checkpointed).
 // Hello-time behaviour comes from the command line, before the scene is read:
@@ -95,7 +97,8 @@ class MockSolver final : public cosim::wire::Solver {
   std::uint64_t checkpoint(const std::string& path) override {
     std::ofstream f(path, std::ios::binary);
     if (!f) throw SolverError(Code::BAD_INPUT, "cannot write checkpoint '" + path + "'");
-    f << "mock-checkpoint 1\n" << exchange_ << " " << step_ << " " << std::hexfloat << time_ << " " << energy_ << "\n";
+    f << "mock-checkpoint 2\n" << exchange_ << " " << step_ << " " << std::hexfloat << time_ << " " << energy_ << " "
+      << history_ << "\n";
     return static_cast<std::uint64_t>(f.tellp());
   }
 
@@ -103,10 +106,11 @@ class MockSolver final : public cosim::wire::Solver {
     std::ifstream f(path);
     std::string magic;
     int version = 0;
-    if (!(f >> magic >> version) || magic != "mock-checkpoint" || version != 1)
-      throw SolverError(Code::BAD_INPUT, "'" + path + "' is not a mock checkpoint");
+    if (!(f >> magic >> version) || magic != "mock-checkpoint" || version != 2)
+      throw SolverError(Code::BAD_INPUT, "'" + path + "' is not a mock checkpoint (version 2)");
     std::string t, e;
-    if (!(f >> exchange_ >> step_ >> t >> e)) throw SolverError(Code::BAD_INPUT, "'" + path + "' is truncated");
+    if (!(f >> exchange_ >> step_ >> t >> e >> history_))
+      throw SolverError(Code::BAD_INPUT, "'" + path + "' is truncated");
     time_ = std::strtod(t.c_str(), nullptr);
     energy_ = std::strtod(e.c_str(), nullptr);
   }
@@ -154,10 +158,11 @@ class MockSolver final : public cosim::wire::Solver {
     const auto state = cosim::mock::pattern(script_.seed, exchange_, script_.length);
     double digest[2] = {-1.0, -1.0};
     double mismatches = 0.0;
+    std::uint64_t fp = 0;
     cosim::proto::NamedArray::Reader received;
     if (cosim::wire::findArray(inputs.getArrays(), "state", received)) {
       const auto values = cosim::wire::view(received.getValues());
-      const auto fp = cosim::wire::fingerprint(values);
+      fp = cosim::wire::fingerprint(values);
       digest[0] = static_cast<double>(fp >> 32);
       digest[1] = static_cast<double>(fp & 0xffffffffull);
       if (script_.expectSeed) {
@@ -169,14 +174,17 @@ class MockSolver final : public cosim::wire::Solver {
             if (std::memcmp(&expected[i], &values[i], sizeof(double)) != 0) mismatches += 1.0;
       }
     }
+    history_ = cosim::mock::splitmix64(history_ ^ fp ^ cosim::mock::splitmix64(exchange_));
+    const double history[2] = {static_cast<double>(history_ >> 32), static_cast<double>(history_ & 0xffffffffull)};
     energy_ = script_.nanAt == exchange_ ? std::nan("") : 0.5 * static_cast<double>(exchange_);
     const double calls = static_cast<double>(criticalDtCalls_);
-    auto arrays = out.initArrays(script_.countCriticalDt ? 4 : 3);
+    auto arrays = out.initArrays(script_.countCriticalDt ? 5 : 4);
     cosim::wire::addArray(arrays, 0, "state", 1, state);
     cosim::wire::addArray(arrays, 1, "digest", 2, digest);
     cosim::wire::addArray(arrays, 2, "mismatches", 1, std::span<const double>(&mismatches, 1));
+    cosim::wire::addArray(arrays, 3, "history", 2, history);
     if (script_.countCriticalDt)
-      cosim::wire::addArray(arrays, 3, "critical_dt_calls", 1, std::span<const double>(&calls, 1));
+      cosim::wire::addArray(arrays, 4, "critical_dt_calls", 1, std::span<const double>(&calls, 1));
   }
 
   HelloOverrides hello_;
@@ -185,6 +193,7 @@ class MockSolver final : public cosim::wire::Solver {
   std::uint64_t step_ = 0;
   double time_ = 0.0;
   double energy_ = 0.0;
+  std::uint64_t history_ = 0;  // running hash of the received states (checkpointed)
   mutable std::uint64_t criticalDtCalls_ = 0;
 };
 
