@@ -10,6 +10,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene_overrides.hpp"
 #include "cosim/coupler/run/coupler_run.hpp"
+#include "cosim/coupler/run/solver_check.hpp"
 #include "cosim/coupler/sweep/sweep.hpp"
 #include "cosim/wire/log.hpp"
 #include "cosim/wire/message.hpp"
@@ -26,8 +27,9 @@ constexpr const char* kUsage =
     "\n"
     "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
     "         and DIR/run_report.json (DIR defaults to the scene's output.dir)\n"
-    "  check  validate the scene and print the coupling graph and the processes it would\n"
-    "         start; starts nothing\n"
+    "  check  validate the scene, print the coupling graph and the processes it would\n"
+    "         start, and have each solver check its section (BINARY --check: it sets up\n"
+    "         in a scratch directory and exits); runs nothing\n"
     "  sweep  run the scene once per combination of the --set values (cartesian product),\n"
     "         each as a `coupler run` into DIR/<index>_<key=value...>/ (output in its\n"
     "         coupler.log); write DIR/sweep.csv and plots of error against wall time\n"
@@ -113,7 +115,12 @@ int couplerMain(int argc, char** argv) {
     if (!overrides.empty()) std::cout << "effective scene: " << scene.file << "\n";
     if (command == "check") {
       describeScene(scene, std::cout);
-      return kExitOk;
+      const auto problems = checkSolverParams(scene, solverCheckDirectory());
+      for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
+      std::cout << "solver params: " << (problems.empty() ? "every solver the run starts accepts its section"
+                                                           : std::to_string(problems.size()) + " solver(s) refuse theirs")
+                << "\n";
+      return problems.empty() ? kExitOk : kExitBadConfig;
     }
     return runScene(scene, options);
   } catch (const config::ConfigError& e) {

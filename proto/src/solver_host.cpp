@@ -1,5 +1,6 @@
 #include "cosim/wire/solver_host.hpp"
 
+#include <capnp/message.h>
 #include <kj/exception.h>
 #include <unistd.h>
 
@@ -361,10 +362,32 @@ void usage(const char* argv0) {
             << " --endpoint ENDPOINT --name INSTANCE [--connect-timeout SECONDS] [--server-key-file FILE]\n"
                "       [--log-level LEVEL]\n"
                "       "
-            << argv0
+            << argv0 << " --check SETUP_FILE\n       " << argv0
             << " --version | --capabilities\n"
                "A solver process: the coupler starts it (or you start it by hand, e.g. under srun)\n"
-               "and it connects to the coupler's ENDPOINT as INSTANCE (its name in the scene).\n";
+               "and it connects to the coupler's ENDPOINT as INSTANCE (its name in the scene).\n"
+               "--check sets up from a setup message the coupler wrote (coupler check) and exits:\n"
+               "0 when the solver accepts its scene section, 2 with the reason when it does not.\n";
+}
+
+// --check: the setup a run would do, from the setup message in `file`, and
+// nothing else (no socket, no step). A SolverError is the user's input.
+int checkSetup(Solver& solver, const std::string& file) {
+  const InMessage in = InMessage::load(file);
+  const auto body = in.envelope().getBody();
+  if (!body.isSetup()) throw MalformedMessage("'" + file + "' holds no setup message");
+  const auto s = body.getSetup();
+  log::setPrefix(s.getInstance());
+  SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
+                   s.getSceneDir()};
+  capnp::MallocMessageBuilder scratch;
+  try {
+    solver.setup(ctx, scratch.initRoot<proto::CouplingData>());
+  } catch (const SolverError& e) {
+    std::cerr << e.what() << "\n";
+    return 2;
+  }
+  return 0;
 }
 }  // namespace
 
@@ -372,6 +395,7 @@ int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver
   std::signal(SIGPIPE, SIG_IGN);
   keepLargeBuffersOnHeap();
   HostOptions options;
+  std::string checkFile;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
@@ -384,6 +408,7 @@ int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver
       else if (arg == "--connect-timeout") options.connectTimeoutS = std::stod(value());
       else if (arg == "--server-key-file") options.serverKey = readKeyFile(value());
       else if (arg == "--log-level") log::setLevel(log::parseLevel(value()));
+      else if (arg == "--check") checkFile = value();
       else if (arg == "--version") { std::cout << factory()->info().version << "\n"; return 0; }
       else if (arg == "--capabilities") {
         for (const auto& c : factory()->info().capabilities) std::cout << c << "\n";
@@ -391,13 +416,21 @@ int solverMain(int argc, char** argv, const std::function<std::unique_ptr<Solver
       } else if (arg == "--help" || arg == "-h") { usage(argv[0]); return 0; }
       else throw std::invalid_argument("unknown argument '" + arg + "'");
     }
-    if (options.endpoint.empty() || options.instance.empty())
+    if (checkFile.empty() && (options.endpoint.empty() || options.instance.empty()))
       throw std::invalid_argument("--endpoint and --name are required");
     if (const char* key = std::getenv("COSIM_SERVER_KEY"); key && options.serverKey.empty()) options.serverKey = key;
   } catch (const std::exception& e) {
     std::cerr << argv[0] << ": " << e.what() << "\n";
     usage(argv[0]);
     return 2;
+  }
+  if (!checkFile.empty()) {
+    try {
+      return checkSetup(*factory(), checkFile);
+    } catch (const std::exception& e) {
+      log::error(e.what());
+      return 1;
+    }
   }
   log::setPrefix(options.instance);
   try {

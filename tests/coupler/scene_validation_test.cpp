@@ -493,10 +493,11 @@ TEST_F(CouplerCheck, DemoSceneExitsZeroAndListsTheProcesses) {
   EXPECT_TRUE(fs::is_empty(cwd_.path())) << "check created output (e.g. runs/two-mocks)";
 }
 
-TEST_F(CouplerCheck, StartsNoSolverProcess) {
-  // A solver binary that leaves a mark when it is run: check must not run it.
+TEST_F(CouplerCheck, RunsTheSolversOnlyInTheirCheckMode) {
+  // A solver binary that notes how it was run: check runs it with --check (and
+  // the scene's args), never as a peer of a run.
   TempDir sceneDir;
-  sceneDir.write("spy_solver", "#!/bin/sh\ntouch \"$(dirname \"$0\")/started\"\n");
+  sceneDir.write("spy_solver", "#!/bin/sh\necho \"$*\" >> \"$(dirname \"$0\")/started\"\n");
   fs::permissions(sceneDir.path() / "spy_solver", fs::perms::owner_all);
   const auto scene = sceneDir.write("spy.yaml",
                                     "scene: spy\n"
@@ -511,8 +512,35 @@ TEST_F(CouplerCheck, StartsNoSolverProcess) {
   const auto spy = (sceneDir.path() / "spy_solver").lexically_normal().string();
   EXPECT_NE(r.out.find("start " + spy + " --endpoint <endpoint> --name left --flag"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("start " + spy + " --endpoint <endpoint> --name right"), std::string::npos) << r.out;
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // a stray child would have run by now
-  EXPECT_FALSE(fs::exists(sceneDir.path() / "started")) << "coupler check started a solver";
+  EXPECT_NE(r.out.find("solver params: every solver the run starts accepts its section"), std::string::npos) << r.out;
+  std::ifstream started(sceneDir.path() / "started");
+  std::vector<std::string> runs;
+  for (std::string line; std::getline(started, line);) runs.push_back(line);
+  ASSERT_EQ(runs.size(), 2u);
+  for (const auto& line : runs) {
+    EXPECT_EQ(line.rfind("--check ", 0), 0u) << line;
+    EXPECT_EQ(line.find("--endpoint"), std::string::npos) << line;
+  }
+  EXPECT_TRUE(runs[0].ends_with(" --flag") || runs[1].ends_with(" --flag"));
+  EXPECT_TRUE(fs::is_empty(cwd_.path()));
+}
+
+TEST_F(CouplerCheck, ASolverThatRefusesItsParamsIsNamedWithItsMessage) {
+  TempDir sceneDir;
+  const auto scene = sceneDir.write("mocks.yaml",
+                                    "scene: mocks\n"
+                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                    "solvers:\n"
+                                    "  - {name: left, kind: mock, params: {seed: 1}}\n"
+                                    "  - {name: right, kind: mock, params: {seed: 2, length: -5}}\n"
+                                    "couplings:\n"
+                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n");
+  const auto r = runProcess({couplerBinary(), "check", scene}, cwd_.path());
+  EXPECT_EQ(r.exitCode, cosim::coupler::kExitBadConfig) << r.out << r.err;
+  EXPECT_NE(r.err.find("solver 'right' refuses its params (exit 2)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("mocks.yaml:5: solvers.right.params.length"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("solver 'left'"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("solver params: 1 solver(s) refuse theirs"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::is_empty(cwd_.path()));
 }
 

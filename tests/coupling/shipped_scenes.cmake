@@ -1,5 +1,6 @@
 # Every scene shipped in configs/ passes `coupler check` (schedule, solvers,
-# couplings and their keys) and is set up for real: `coupler run --exchanges 0`
+# couplings and their keys, and each solver's own check of its params: it sets
+# up from the setup message in a scratch directory) and is set up for real: `coupler run --exchanges 0`
 # starts every solver it names, sends each its params and stops once all have
 # answered the setup, so a scene whose solver params rot fails here, not at the
 # start of a user's hour-long run. The GMH scenes read a small prepared cell
@@ -16,7 +17,8 @@ foreach(scene ${COSIM_SHIPPED_SCENES})
   string(REGEX REPLACE "[/.]" "_" name "${rel}")
   add_test(NAME scene_check_${name} COMMAND $<TARGET_FILE:coupler> check ${scene}
     WORKING_DIRECTORY ${COSIM_SCENE_DIR})
-  set_tests_properties(scene_check_${name} PROPERTIES TIMEOUT 30 LABELS unit)
+  set_tests_properties(scene_check_${name} PROPERTIES TIMEOUT 120 FIXTURES_REQUIRED shipped_scene_cells
+    LABELS integration)
   add_test(NAME scene_setup_${name}
     COMMAND $<TARGET_FILE:coupler> run ${scene} --exchanges 0 --no-progress --out ${COSIM_SCENE_DIR}/${name}
     WORKING_DIRECTORY ${COSIM_SCENE_DIR})

@@ -216,12 +216,16 @@ TEST_F(CouplerRun, WrongKindIsRefused) {
   EXPECT_NE(f.err.find("reports kind 'dem' but the scene declares kind 'mock'"), std::string::npos) << f.err;
 }
 
+// The solvers check their params before the run starts them (coupler check's
+// path): a refused section is a bad scene, exit 2, and no run directory is made.
 TEST_F(CouplerRun, BadSolverParamsNameTheSceneLine) {
   SceneOptions o;
   o.right = "{seed: 2, length: -5}";
   const auto f = runCoupler(o);
-  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_EQ(f.code, 2) << f.err;
   EXPECT_NE(f.err.find("scene.yaml:10: solvers.right.params.length"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("run refused before any solver started"), std::string::npos) << f.err;
+  EXPECT_FALSE(fs::exists(dir_ / "run")) << "a refused scene made its run directory";
 }
 
 TEST_F(CouplerRun, SolverErrorDuringRunStopsIt) {

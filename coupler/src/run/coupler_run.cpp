@@ -15,6 +15,7 @@
 #include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/launch/process_group.hpp"
 #include "cosim/coupler/run/checkpoint_store.hpp"
+#include "cosim/coupler/run/solver_check.hpp"
 #include "cosim/io/h5_file.hpp"
 #include "cosim/util/binary_record.hpp"
 #include "cosim/util/cpu_affinity.hpp"
@@ -450,14 +451,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& s : scene_.solvers) {
       auto& inputs = inputs_[s.name];
       wire::OutMessage m(scene_.text.size() / 8 + 256 + inputs.words());
-      auto setup = m.envelope().getBody().initSetup();
-      setup.setSceneFile(scene_.file);
-      setup.setSceneYaml(scene_.text);
-      setup.setInstance(s.name);
-      setup.setRunDir(fs::absolute(runDir_).string());
-      setup.setResuming(resumeFrom_.has_value());
-      setup.setSceneDir(fs::absolute(scene_.sceneDir).string());
-      inputs.build(setup.initInputs());
+      fillSetup(m.envelope().getBody().initSetup(), scene_, s, inputs, runDir_, resumeFrom_.has_value());
       pending.emplace_back(s.name, session_->request(s.name, m));
     }
     std::vector<wire::Reply> replies;
@@ -748,8 +742,18 @@ class CouplerRun final : public ExchangeDriver {
 
 }  // namespace
 
+fs::path solverCheckDirectory() {
+  return fs::temp_directory_path() / ("cosim-solver-check-" + std::to_string(::getpid()));
+}
+
 int runScene(const Scene& scene, const RunOptions& options) {
   installStopSignalHandlers();
+  // Before anything starts for real: what only the solvers can judge.
+  if (const auto problems = checkSolverParams(scene, solverCheckDirectory()); !problems.empty()) {
+    for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
+    std::cerr << "coupler: run refused before any solver started\n";
+    return kExitBadConfig;
+  }
   CouplerRun run(scene, options);
   return run.run();
 }

@@ -3,6 +3,7 @@
 // check their hellos, set them up, let the schedule drive the exchanges, and
 // always end with peers shut down, no child left, output flushed, and a report.
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -34,5 +35,8 @@ int runScene(const Scene& scene, const RunOptions& options);
 
 /// What `coupler check` prints: the coupling graph and the processes a run would start.
 void describeScene(const Scene& scene, std::ostream& out);
+
+/// Where the solvers check their params before a run or in `coupler check` (removed afterwards).
+std::filesystem::path solverCheckDirectory();
 
 }  // namespace cosim::coupler

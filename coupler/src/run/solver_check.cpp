@@ -1,0 +1,116 @@
+#include "cosim/coupler/run/solver_check.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "cosim/wire/message.hpp"
+
+namespace cosim::coupler {
+namespace fs = std::filesystem;
+
+void fillSetup(proto::Setup::Builder setup, const Scene& scene, const SolverSpec& s, InputAssembler& inputs,
+               const fs::path& runDir, bool resuming) {
+  setup.setSceneFile(scene.file);
+  setup.setSceneYaml(scene.text);
+  setup.setInstance(s.name);
+  setup.setRunDir(fs::absolute(runDir).string());
+  setup.setResuming(resuming);
+  setup.setSceneDir(fs::absolute(scene.sceneDir).string());
+  inputs.build(setup.initInputs());
+}
+
+namespace {
+
+// A setup is a solver's own work: a large mesh or pack takes seconds, never this long.
+constexpr double kCheckTimeoutS = 600.0;
+
+struct Check {
+  std::string solver;
+  pid_t pid = -1;
+  fs::path log;
+};
+
+pid_t startCheck(const SolverSpec& s, const fs::path& setupFile, const fs::path& log) {
+  std::vector<std::string> args{s.binary, "--check", setupFile.string()};
+  args.insert(args.end(), s.args.begin(), s.args.end());
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("cannot start the check of solver '" + s.name + "': fork failed");
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+    }
+    ::execv(s.binary.c_str(), argv.data());
+    const char msg[] = "exec of the solver binary failed\n";
+    (void)!::write(STDERR_FILENO, msg, sizeof msg - 1);
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// The solver's own words: its last non-empty lines, without the log prefix.
+std::string message(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, text;
+  while (std::getline(in, line))
+    if (!line.empty()) text += (text.empty() ? "" : "\n    ") + line;
+  return text.empty() ? "(no message)" : text;
+}
+
+std::string outcome(const Check& c) {
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  while (::waitpid(c.pid, &status, WNOHANG) == 0) {
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > kCheckTimeoutS) {
+      ::kill(c.pid, SIGKILL);
+      ::waitpid(c.pid, &status, 0);
+      return "solver '" + c.solver + "' did not finish checking its params in " +
+             std::to_string(static_cast<int>(kCheckTimeoutS)) + " s";
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return {};
+  const std::string how = WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
+                                            : "signal " + std::to_string(WTERMSIG(status));
+  return "solver '" + c.solver + "' refuses its params (" + how + "): " + message(c.log);
+}
+
+}  // namespace
+
+std::vector<std::string> checkSolverParams(const Scene& scene, const fs::path& scratch) {
+  fs::create_directories(scratch);
+  std::map<std::string, InputAssembler> inputs;
+  for (const auto& c : scene.couplings) c->stageSetup(inputs);
+  std::vector<Check> checks;
+  std::vector<std::string> problems;
+  for (const auto& s : scene.solvers) {
+    if (s.launch != SolverSpec::Launch::spawn) continue;
+    const fs::path dir = scratch / s.name;
+    fs::create_directories(dir / "run");
+    auto& staged = inputs[s.name];
+    wire::OutMessage m(scene.text.size() / 8 + 256 + staged.words());
+    fillSetup(m.envelope().getBody().initSetup(), scene, s, staged, dir / "run", false);
+    const fs::path file = dir / "setup.bin";
+    wire::InMessage::decode(m.frames()).save(file.string());
+    checks.push_back({s.name, startCheck(s, file, dir / "check.log"), dir / "check.log"});
+  }
+  for (const auto& c : checks)
+    if (auto problem = outcome(c); !problem.empty()) problems.push_back(std::move(problem));
+  std::error_code ignored;
+  fs::remove_all(scratch, ignored);
+  return problems;
+}
+
+}  // namespace cosim::coupler
