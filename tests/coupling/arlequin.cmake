@@ -7,6 +7,6 @@ endif()
 cosim_test(coupling_arlequin_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/arlequin_test.cpp ${CMAKE_CURRENT_LIST_DIR}/arlequin_run_test.cpp
   LIBS cosim_coupler cosim_fem cosim_test_support cosim_io
-  TIMEOUT 120)
+  TIMEOUT 120 LABELS coupled)
 target_include_directories(coupling_arlequin_tests PRIVATE ${CMAKE_SOURCE_DIR}/tests/support)
 add_dependencies(coupling_arlequin_tests coupler dem_solver fem_solver)

@@ -4,6 +4,6 @@ if("dem" IN_LIST COSIM_SOLVERS AND "pd" IN_LIST COSIM_SOLVERS)
   cosim_test(coupling_pd_dem_run_tests
     SOURCES ${CMAKE_CURRENT_LIST_DIR}/pd_dem_run_test.cpp
     LIBS cosim_test_support cosim_io nlohmann_json::nlohmann_json
-    TIMEOUT 60)
+    TIMEOUT 120 LABELS coupled)
   add_dependencies(coupling_pd_dem_run_tests coupler dem_solver pd_solver)
 endif()

@@ -8,6 +8,6 @@ if("dem" IN_LIST COSIM_SOLVERS AND "fem" IN_LIST COSIM_SOLVERS)
   cosim_test(coupling_surface_run_tests
     SOURCES ${CMAKE_CURRENT_LIST_DIR}/surface_run_test.cpp
     LIBS cosim_test_support cosim_io nlohmann_json::nlohmann_json
-    TIMEOUT 300)
+    TIMEOUT 420 LABELS coupled slow)
   add_dependencies(coupling_surface_run_tests coupler dem_solver fem_solver)
 endif()
