@@ -126,6 +126,12 @@ struct SolverHost::Impl {
       auto env = r->message->envelope();
       if (env.getBody().which() == Which::WELCOME) {
         auto w = env.getBody().getWelcome();
+        if (const auto mine = solver.info().protocolMajor; w.getProtocolMajor() != mine) {
+          log::error("the coupler speaks protocol " + std::to_string(w.getProtocolMajor()) + "." +
+                     std::to_string(w.getProtocolMinor()) + ", this solver " + std::to_string(mine) + "." +
+                     std::to_string(proto::PROTOCOL_MINOR) + " (major versions must match): leaving");
+          return false;
+        }
         if (w.getHeartbeatIntervalS() > 0) options.heartbeatIntervalS = w.getHeartbeatIntervalS();
         if (w.getHeartbeatTimeoutS() > 0) options.heartbeatTimeoutS = w.getHeartbeatTimeoutS();
         return true;

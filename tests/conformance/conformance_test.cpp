@@ -86,10 +86,10 @@ class Conformance : public ::testing::Test {
     return std::nullopt;
   }
 
-  void welcome(double heartbeatTimeoutS = 10.0) {
+  void welcome(double heartbeatTimeoutS = 10.0, std::uint16_t major = proto::PROTOCOL_MAJOR) {
     wire::OutMessage m;
     auto w = m.envelope().getBody().initWelcome();
-    w.setProtocolMajor(proto::PROTOCOL_MAJOR);
+    w.setProtocolMajor(major);
     w.setHeartbeatIntervalS(0.1);
     w.setHeartbeatTimeoutS(heartbeatTimeoutS);
     ASSERT_TRUE(router_->send(g_subject.instance, m));
@@ -343,6 +343,18 @@ TEST_F(Conformance, ShutdownEndsTheProcessCleanly) {
   EXPECT_TRUE(r.envelope().getBody().isShutdownDone()) << describe(r);
   EXPECT_EQ(solver_->wait(10), 0) << solver_->err();
   exited_ = true;
+}
+
+// A coupler of another protocol major cannot be understood: the solver says
+// so, naming both versions, and leaves without waiting for a setup.
+TEST_F(Conformance, AWelcomeOfAnotherProtocolMajorIsRefused) {
+  welcome(10.0, static_cast<std::uint16_t>(proto::PROTOCOL_MAJOR + 1));
+  const int code = solver_->wait(10);
+  exited_ = true;
+  EXPECT_FALSE(solver_->timedOut()) << "the solver stayed with a coupler it cannot understand";
+  EXPECT_EQ(code, 3) << solver_->err();
+  EXPECT_NE(solver_->err().find("the coupler speaks protocol " + std::to_string(proto::PROTOCOL_MAJOR + 1) + "."),
+            std::string::npos) << solver_->err();
 }
 
 TEST_F(Conformance, LeavesWhenTheCouplerFallsSilent) {
