@@ -120,6 +120,11 @@ class ValidateRunner(unittest.TestCase):
                                                                    "tool: rm\n    args: [-rf, /]\n    set"), work)
             self.assertEqual(p.returncode, 2)
             self.assertIn("runs.pair.tool: one of l1_elastic_constants", p.stderr)
+            # `with` belongs to the extractors over several runs
+            p, _ = run_validate(SCENE.replace("TOL", "0").replace("    value: report:exchanges",
+                                                                   "    with: [later]\n    value: report:exchanges"), work)
+            self.assertEqual(p.returncode, 2)
+            self.assertIn("figures[0].with: only the extractors over several runs take it", p.stderr)
 
     def test_a_failed_run_deviates_with_its_message(self):
         with tempfile.TemporaryDirectory() as work:
@@ -155,13 +160,6 @@ class ValidateRunner(unittest.TestCase):
             self.assertIn("run b of this figure did not run", rows[0]["note"])
         finally:
             del extract.OVER_RUNS["test_over"]
-
-    def test_with_is_refused_for_an_extractor_of_one_run(self):
-        with tempfile.TemporaryDirectory() as work:
-            p, _ = run_validate(SCENE.replace("TOL", "0").replace("    value: report:exchanges",
-                                                                   "    with: [later]\n    value: report:exchanges"), work)
-            self.assertEqual(p.returncode, 2)
-            self.assertIn("figures[0].with: only the extractors over several runs take it", p.stderr)
 
     def test_lists_of_overrides_are_joined(self):
         # runs share override lists through YAML anchors: a list of lists is one list
