@@ -187,6 +187,40 @@ TEST_F(CouplerRun, StalledComputationMissesItsDeadline) {
   EXPECT_NE(f.err.find("heartbeat (computing)"), std::string::npos) << f.err;
 }
 
+// Protocol paths before time zero: a solver that exits before its hello, and
+// one that never says it (connect timeout), are named with what was heard of
+// them; neither leaves anything behind, a child of its own included.
+TEST_F(CouplerRun, ASolverThatExitsBeforeItsHelloIsNamed) {
+  const auto script = dir_ / "quits.sh";
+  std::ofstream(script) << "#!/bin/sh\n[ \"$1\" = --check ] && exit 0\nexit 7\n";
+  fs::permissions(script, fs::perms::owner_all);
+  SceneOptions o;
+  o.rightExtra = "binary: " + script.string();
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("peer 'right'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("exited with code 7, before time zero"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("it never said hello"), std::string::npos) << f.err;
+}
+
+TEST_F(CouplerRun, ASilentSolverMissesTheConnectTimeoutAndItsChildrenGoWithIt) {
+  const auto script = dir_ / "silent.sh";
+  const auto marker = dir_ / "marker";
+  std::ofstream(marker) << "a file the solver's child keeps open\n";
+  std::ofstream(script) << "#!/bin/sh\n[ \"$1\" = --check ] && exit 0\ntail -f " << marker.string()
+                        << " > /dev/null &\nwait\n";
+  fs::permissions(script, fs::perms::owner_all);
+  SceneOptions o;
+  o.rightExtra = "binary: " + script.string();
+  o.transport = "{connect_timeout: 1.0, heartbeat_interval: 0.1, heartbeat_timeout: 1.0}";
+  const auto f = runCoupler(o);
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("peer 'right', before time zero: no hello within 1.00 s"), std::string::npos) << f.err;
+  for (int i = 0; i < 100 && !processesMentioning(marker.string()).empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_TRUE(processesMentioning(marker.string()).empty()) << "the silent solver's child outlived the run";
+}
+
 TEST_F(CouplerRun, ProtocolMismatchIsRefusedBeforeTimeZero) {
   SceneOptions o;
   o.rightExtra = "args: [--mock-protocol-major, '99']";
@@ -445,6 +479,8 @@ TEST_F(CouplerRun, SolverLeavesWhenTheCouplerFallsSilent) {
   ASSERT_TRUE(hello && hello->message && hello->message->envelope().getBody().isHello());
   wire::OutMessage welcome;
   auto w = welcome.envelope().getBody().initWelcome();
+  w.setProtocolMajor(proto::PROTOCOL_MAJOR);
+  w.setProtocolMinor(proto::PROTOCOL_MINOR);
   w.setHeartbeatIntervalS(0.1);
   w.setHeartbeatTimeoutS(0.5);
   ASSERT_TRUE(router.send("lonely", welcome));

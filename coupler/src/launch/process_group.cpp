@@ -70,9 +70,20 @@ pid_t ProcessGroup::spawn(const std::string& name, const std::string& binary, co
     [[maybe_unused]] auto ignored = ::write(2, msg, sizeof(msg) - 1);
     ::_exit(127);
   }
+  ::setpgid(pid, pid);  // as the child does: its group exists before any signal is sent to it
   children_.push_back({name, pid, true});
   return pid;
 }
+
+namespace {
+// A solver's own children (a wrapper's job step, a helper it started) share its
+// process group: signals go to the whole group, so none of them outlives the run.
+// Called only while the solver's pid is ours (running, or just reaped), so the
+// group is the one it made.
+void signalGroup(pid_t pid, int sig) {
+  if (::kill(-pid, sig) != 0) ::kill(pid, sig);
+}
+}  // namespace
 
 std::optional<ProcessGroup::Exit> ProcessGroup::reapOne() {
   for (auto& c : children_) {
@@ -81,6 +92,7 @@ std::optional<ProcessGroup::Exit> ProcessGroup::reapOne() {
     const pid_t r = ::waitpid(c.pid, &status, WNOHANG);
     if (r == c.pid) {
       c.running = false;
+      ::kill(-c.pid, SIGKILL);  // what it left behind in its group
       return Exit{c.name, c.pid, describeStatus(status)};
     }
   }
@@ -97,7 +109,7 @@ std::vector<pid_t> ProcessGroup::livePids() const {
 void ProcessGroup::kill(const std::string& name) {
   for (auto& c : children_)
     if (c.name == name && c.running) {
-      ::kill(c.pid, SIGKILL);
+      signalGroup(c.pid, SIGKILL);
       int status = 0;
       ::waitpid(c.pid, &status, 0);
       c.running = false;
@@ -109,8 +121,12 @@ bool ProcessGroup::reapFinished() {
   for (auto& c : children_) {
     if (!c.running) continue;
     int status = 0;
-    if (::waitpid(c.pid, &status, WNOHANG) == c.pid) c.running = false;
-    else anyRunning = true;
+    if (::waitpid(c.pid, &status, WNOHANG) == c.pid) {
+      c.running = false;
+      ::kill(-c.pid, SIGKILL);  // what it left behind in its group
+    } else {
+      anyRunning = true;
+    }
   }
   return anyRunning;
 }
@@ -123,11 +139,11 @@ void ProcessGroup::waitWhileRunning(double seconds) {
 void ProcessGroup::terminateAll(double politeS, double graceS) {
   waitWhileRunning(politeS);  // children asked to shut down leave by themselves
   for (auto& c : children_)
-    if (c.running) ::kill(c.pid, SIGTERM);
+    if (c.running) signalGroup(c.pid, SIGTERM);
   waitWhileRunning(graceS);
   for (auto& c : children_)
     if (c.running) {
-      ::kill(c.pid, SIGKILL);  // also ends a stopped (SIGSTOP) child
+      signalGroup(c.pid, SIGKILL);  // also ends a stopped (SIGSTOP) child
       int status = 0;
       ::waitpid(c.pid, &status, 0);
       c.running = false;
