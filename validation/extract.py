@@ -286,7 +286,17 @@ def l2_figures(run, scale):
     m = re.search(r"^RMS\(GMH - DEM\) \S+ = \S+ kPa = (\S+) % of peak", out.stdout, re.M)
     if not m:
         raise ValueError("l2_compare printed no RMS line (exit %d: %s)" % (out.returncode, out.stderr.strip()[-200:]))
-    return {"rms_of_peak": float(m.group(1)) / 100.0}
+    figures = {"rms_of_peak": float(m.group(1)) / 100.0}
+    # the first stress component's RMS up to its peak, and the chaos floor: direct DEM
+    # against itself with every increment perturbed by 1e-10
+    peak = re.search(r"^  up to the peak of \S+ \(step \d+\): RMS\(GMH - DEM\) \S+ = (\S+) % of peak", out.stdout, re.M)
+    floor = re.search(r"^  noise floor RMS\(DEM - DEM[^)]*\)\) \S+ = \S+ kPa = (\S+) % of peak", out.stdout, re.M)
+    if peak:
+        figures["rms_to_peak"] = float(peak.group(1)) / 100.0
+    if floor and float(floor.group(1)) > 0:
+        figures["noise_floor"] = float(floor.group(1)) / 100.0
+        figures["rms_over_noise_floor"] = figures["rms_of_peak"] / figures["noise_floor"]
+    return figures
 
 
 # --- scene L1 (Liu 2016 Sec. 3.1, Table II): the cell's elastic constants ---
