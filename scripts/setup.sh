@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian packages only) and builds Release into build/.
 # Idempotent and quiet when everything is there. Environment:
-#   COSIM_BUILD_DIR (default build), COSIM_WERROR=ON to treat warnings as errors.
+#   COSIM_BUILD_DIR (default build), COSIM_WERROR=ON to treat warnings as errors,
+#   COSIM_CMAKE_ARGS more configure arguments (scripts/sanitize.sh: the sanitizers).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -31,7 +32,8 @@ jobs=$(nproc 2>/dev/null || echo 2)
 # tests does not flip the warning flags and rebuild everything.
 werror=()
 [ -n "${COSIM_WERROR:-}" ] && werror=(-DCOSIM_WERROR="$COSIM_WERROR")
-cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${werror[@]}" >/dev/null
+read -r -a extra <<< "${COSIM_CMAKE_ARGS:-}"
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${werror[@]}" "${extra[@]}" >/dev/null
 # Progress lines are dropped; warnings, errors and a failed build are not.
 set +e
 cmake --build "$build_dir" -j "$jobs" 2>&1 | grep -vE '^\[[0-9]+/[0-9]+\] '

@@ -15,8 +15,12 @@ constexpr char kMagic[4] = {'C', 'S', 'M', '1'};
 constexpr std::size_t kHeaderBytes = 8;
 // A reader may traverse at most this many times the words it received: enough
 // for code that reads a list a few dozen times, still bounded against
-// amplification by hostile pointers.
+// amplification by hostile pointers (many pointers to one object). A small
+// message gets at least kTraversalFloorWords: with Cap'n Proto's default floor
+// of 8 Mi words a message of a few hundred bytes can cost seconds of reading
+// (fuzz/corpus/wire_decode/regress-* are such messages).
 constexpr std::uint64_t kTraversalFactor = 64;
+constexpr std::uint64_t kTraversalFloorWords = 1u << 20;
 
 void releaseBuilder(void* /*data*/, void* hint) {
   delete static_cast<std::shared_ptr<PooledMessageBuilder>*>(hint);
@@ -90,8 +94,7 @@ InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
   }
   capnp::ReaderOptions options;
   const std::uint64_t totalWords = in.bytes_ / sizeof(capnp::word);
-  options.traversalLimitInWords =
-      std::max<std::uint64_t>(options.traversalLimitInWords, totalWords * kTraversalFactor);
+  options.traversalLimitInWords = std::max<std::uint64_t>(kTraversalFloorWords, totalWords * kTraversalFactor);
   try {
     in.reader_ = std::make_unique<capnp::SegmentArrayMessageReader>(
         kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>>(segments.data(), segments.size()),
@@ -134,7 +137,7 @@ InMessage InMessage::load(const std::string& path) {
   m.bytes_ = size;
   capnp::ReaderOptions options;
   options.traversalLimitInWords =
-      std::max<std::uint64_t>(options.traversalLimitInWords, size / sizeof(capnp::word) * kTraversalFactor);
+      std::max<std::uint64_t>(kTraversalFloorWords, size / sizeof(capnp::word) * kTraversalFactor);
   try {
     m.reader_ = std::make_unique<capnp::FlatArrayMessageReader>(m.fileWords_.asPtr(), options);
     m.root_ = m.reader_->getRoot<proto::Envelope>();

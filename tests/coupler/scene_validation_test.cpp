@@ -210,9 +210,10 @@ TEST(GoodScene, DemoLoads) {
   EXPECT_DOUBLE_EQ(scene.link.heartbeatIntervalS, 0.5);
   EXPECT_DOUBLE_EQ(scene.link.heartbeatTimeoutS, 10.0);
   EXPECT_EQ(scene.output.dir, "runs/two-mocks");
-  ASSERT_EQ(scene.output.record.size(), 4u);
+  ASSERT_EQ(scene.output.record.size(), 6u);
   EXPECT_EQ(scene.output.record[1].solver, "left");
   EXPECT_EQ(scene.output.record[1].array, "mismatches");
+  EXPECT_EQ(scene.output.record[2].array, "history");
   const auto caps = scene.requiredCapabilities("left");
   EXPECT_NE(std::find(caps.begin(), caps.end(), "arrays"), caps.end());
   EXPECT_NE(std::find(caps.begin(), caps.end(), "advance"), caps.end());
