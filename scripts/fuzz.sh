@@ -22,7 +22,7 @@ for t in "${targets[@]}"; do
   echo "== $t: $runs executions"
   if ! build-fuzz/bin/"fuzz_$t" -runs="$runs" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
        -artifact_prefix="build-fuzz/findings/$t/" "build-fuzz/corpus/$t" "fuzz/corpus/$t" 2>&1 |
-       grep -E "^#[0-9]+ +(DONE|INITED)|stat::|ERROR|SUMMARY|Test unit written"; then
+       grep -E "^#[0-9]+[[:space:]]+(DONE|INITED)|stat::|ERROR|SUMMARY|Test unit written"; then
     :
   fi
   if compgen -G "build-fuzz/findings/$t/*" >/dev/null; then
