@@ -237,8 +237,10 @@ def rows_for(sc, tier, results):
             continue
         row["wall_s"] = round(res["wall_s"], 2)
         try:
-            if "with" in fig:
-                res = dict(res, **{"with": [_result_of(results, sc, other)["out"] for other in fig["with"]]})
+            if "with" in fig:  # a figure of several runs costs all of them
+                others = [_result_of(results, sc, other) for other in fig["with"]]
+                res = dict(res, **{"with": [o["out"] for o in others]})
+                row["wall_s"] = round(res["wall_s"] + sum(o["wall_s"] for o in others), 2)
             value = extract.value(fig["value"], res)
             if "per" in fig:  # a ratio: this value over another run's (or another of this run's)
                 other = results.get((sc["scene"], fig["per"]["run"]))

@@ -153,7 +153,7 @@ class ValidateRunner(unittest.TestCase):
                        for r in ("a", "b")}
             rows = validate.rows_for(sc, "standard", results)
             self.assertEqual(seen, [("/runs/a", "/runs/b")])
-            self.assertEqual((rows[0]["ours"], rows[0]["status"]), (2.0, "reproduced"))
+            self.assertEqual((rows[0]["ours"], rows[0]["status"], rows[0]["wall_s"]), (2.0, "reproduced", 2.0))
             del results[("C1", "b")]
             rows = validate.rows_for(sc, "standard", results)
             self.assertEqual(rows[0]["status"], "deviates")
