@@ -55,6 +55,14 @@ std::string hostName() {
 }
 }  // namespace
 
+namespace {
+// What a setup message tells the solver (the run's setup and --check read it alike).
+SetupContext setupContext(proto::Setup::Reader s) {
+  return {s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
+          s.getSceneDir()};
+}
+}  // namespace
+
 struct SolverHost::Impl {
   Solver& solver;
   HostOptions options;
@@ -262,8 +270,7 @@ struct SolverHost::Impl {
   }
 
   void onSetup(std::uint64_t seq, proto::Setup::Reader s) {
-    SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
-                     s.getSceneDir()};
+    const SetupContext ctx = setupContext(s);
     auto m = reply(seq, solver.outputWordsHint());
     auto done = m.envelope().getBody().initSetupDone();
     solver.setup(ctx, done.initOutputs());
@@ -384,8 +391,7 @@ int checkSetup(Solver& solver, const std::string& file) {
   if (!body.isSetup()) throw MalformedMessage("'" + file + "' holds no setup message");
   const auto s = body.getSetup();
   log::setPrefix(s.getInstance());
-  SetupContext ctx{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
-                   s.getSceneDir()};
+  const SetupContext ctx = setupContext(s);
   capnp::MallocMessageBuilder scratch;
   try {
     solver.setup(ctx, scratch.initRoot<proto::CouplingData>());
