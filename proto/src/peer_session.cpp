@@ -22,6 +22,19 @@ bool isReplyKind(Which w) {
          w == Which::ERROR;
 }
 
+/// The reply kind that answers a request kind (besides an error, which answers any).
+Which answerTo(Which request) {
+  switch (request) {
+    case Which::SETUP: return Which::SETUP_DONE;
+    case Which::ADVANCE: return Which::ADVANCED;
+    case Which::FIELDS_REQUEST: return Which::FIELDS;
+    case Which::CHECKPOINT: return Which::CHECKPOINT_DONE;
+    case Which::RESTORE: return Which::RESTORED;
+    case Which::SHUTDOWN: return Which::SHUTDOWN_DONE;
+    default: return Which::ERROR;
+  }
+}
+
 OutMessage errorMessage(proto::Error::Code code, const std::string& text, std::uint64_t replyTo) {
   OutMessage m;
   auto env = m.envelope();
@@ -94,6 +107,8 @@ void PeerSession::take(Received&& r) {
       name.size() > 3 && name.compare(name.size() - 3, 3, kHeartbeatSuffix) == 0;
   if (heartbeatChannel) name.resize(name.size() - 3);
   if (!r.message) {
+    if (peers_.count(name))  // a registered peer's defect: nothing it sends can be trusted after it
+      fault(name, "sent a malformed message (" + std::to_string(r.bytes) + " bytes): " + r.error);
     log::warn("dropped a malformed message from '" + r.identity + "' (" + std::to_string(r.bytes) +
               " bytes): " + r.error);
     socket_.send(r.identity, errorMessage(proto::Error::Code::MALFORMED, "malformed message: " + r.error, 0));
@@ -110,6 +125,11 @@ void PeerSession::take(Received&& r) {
                                             "this run has no solver instance '" + name +
                                                 "' (it expects: " + known + ")", env.getSeq()));
       return;
+    }
+    if (auto known = peers_.find(name); known != peers_.end() && known->second.welcomed) {
+      const auto h = env.getBody().getHello();
+      fault(name, "said hello again mid-run (pid " + std::to_string(h.getPid()) + " on " + h.getHost().cStr() +
+                      "): the process restarted, or a second process uses its name");
     }
     onHello(name, std::move(*r.message));
     peers_[name].traffic.messagesReceived++;
@@ -134,7 +154,12 @@ void PeerSession::take(Received&& r) {
   const auto replyTo = env.getReplyTo();
   p.lastHeardWhat = "'" + bodyName(env) + "'" + (replyTo ? " in reply to seq " + std::to_string(replyTo) : "");
   if (isReplyKind(which) && p.deadlines.count(replyTo)) {
+    const Which expected = p.answers.at(replyTo);
+    if (which != Which::ERROR && which != expected)
+      fault(name, "answered '" + p.kinds.at(replyTo) + "' (seq " + std::to_string(replyTo) + ") with '" +
+                      bodyName(env) + "'");
     p.deadlines.erase(replyTo);
+    p.answers.erase(replyTo);
     p.replies.emplace(replyTo, Reply{std::move(*r.message), monotonicSeconds()});
     return;
   }
@@ -143,6 +168,14 @@ void PeerSession::take(Received&& r) {
     if (e.getFatal()) fault(name, std::string("reported a fatal error: ") + e.getMessage().cStr());
     log::warn("peer '" + name + "' reported: " + e.getMessage().cStr());
     return;
+  }
+  if (isReplyKind(which) && p.welcomed) {
+    // Every request has one reply and waits for it until its deadline, so a
+    // reply without a waiting request is a defect of the peer, not a late one.
+    if (replyTo == 0 || replyTo >= p.nextSeq)
+      fault(name, "sent '" + bodyName(env) + "' in reply to seq " + std::to_string(replyTo) +
+                      ", a request it was never sent");
+    fault(name, "answered seq " + std::to_string(replyTo) + " a second time ('" + bodyName(env) + "')");
   }
   log::warn("dropped '" + bodyName(env) + "' from '" + name + "' (seq " + std::to_string(env.getSeq()) +
             ", reply to " + std::to_string(replyTo) + "): no request is waiting for it");
@@ -230,6 +263,7 @@ std::uint64_t PeerSession::request(const std::string& peer, OutMessage& message,
   p.traffic.bytesSent += message.sizeInBytes();
   p.deadlines[seq] = monotonicSeconds() + (timeoutS > 0 ? timeoutS : options_.requestTimeoutS);
   p.kinds[seq] = kind;
+  p.answers[seq] = answerTo(env.getBody().which());
   return seq;
 }
 
@@ -295,6 +329,7 @@ void PeerSession::shutdownAll(const std::string& reason, double timeoutS, const 
   for (auto& [name, p] : peers_) {
     p.welcomed = false;
     p.deadlines.clear();
+    p.answers.clear();
   }
 }
 

@@ -563,6 +563,36 @@ TEST_F(CouplerRun, ResumeRefusesACorruptCheckpointState) {
   }
 }
 
+TEST_F(CouplerRun, ResumeNamesAMissingOrCorruptSolverCheckpoint) {
+  SceneOptions o;
+  o.outputExtra = "checkpoint_interval: 10";
+  auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  const auto point = runDir() / "checkpoints" / "exchange-100";
+  ASSERT_TRUE(fs::exists(point / "right.chk"));
+  std::ofstream(point / "right.chk") << "mock-checkpoint 2\n17";
+  f = runCoupler(o, {"--resume"});
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("peer 'right'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find("answered 'restore'"), std::string::npos) << f.err;
+  EXPECT_NE(f.err.find((point / "right.chk").string() + "' is truncated"), std::string::npos) << f.err;
+  std::ofstream(point / "right.chk") << "mock-checkpoint 2\n100 100 0x1.999999999999ap-4 0x0p+0 5\n";
+  std::ofstream(point / "left.last.bin") << "12345678";
+  f = runCoupler(o, {"--resume"});
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find("solver 'left''s last reply in the checkpoint: " + (point / "left.last.bin").string() +
+                       ": not a valid Envelope"),
+            std::string::npos)
+      << f.err;
+  fs::remove(point / "left.chk");
+  f = runCoupler(o, {"--resume"});
+  EXPECT_EQ(f.code, 3) << f.err;
+  EXPECT_NE(f.err.find(point.string() + ": the checkpoint lacks solver 'left''s state (left.chk)"),
+            std::string::npos)
+      << f.err;
+  EXPECT_FALSE(fs::exists(runDir() / "checkpoints" / "exchange-110")) << "no solver may have run";
+}
+
 }  // namespace
 }  // namespace cosim::testing
 

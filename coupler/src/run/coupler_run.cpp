@@ -208,6 +208,13 @@ class CouplerRun final : public ExchangeDriver {
     if (CheckpointStore::sceneText(*resumeFrom_) != scene_.text)
       throw Refused("cannot resume: " + scene_.file + " differs from the scene the run in " + runDir_.string() +
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
+    for (const auto& s : scene_.solvers)
+      for (const auto& file : {CheckpointStore::solverCheckpoint(resumeFrom_->dir, s.name),
+                               CheckpointStore::solverLastReply(resumeFrom_->dir, s.name)})
+        if (!fs::is_regular_file(file))
+          throw Refused(resumeFrom_->dir.string() + ": the checkpoint lacks solver '" + s.name + "''s state (" +
+                            file.filename().string() + "); resume from an earlier one by removing this directory",
+                        s.name);
     // A reference solution continues from what it had gathered up to the
     // checkpoint; without that state (no analysis state in the checkpoint) it
     // would see only the exchanges after the resume, so the resume is refused.
@@ -260,7 +267,11 @@ class CouplerRun final : public ExchangeDriver {
                   std::to_string(point.time) + " s");
     }
     for (const auto& s : scene_.solvers) {
-      latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
+      try {
+        latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
+      } catch (const wire::MalformedMessage& e) {
+        throw Refused(std::string("cannot resume: solver '") + s.name + "''s last reply in the checkpoint: " + e.what(), s.name);
+      }
       keepViews(s.name);
     }
     exchange_ = completed_ = point.exchange;

@@ -102,6 +102,7 @@ class PeerSession {
     std::string lastHeardWhat = "nothing";
     std::map<std::uint64_t, double> deadlines;   // pending requests
     std::map<std::uint64_t, std::string> kinds;  // pending request kinds
+    std::map<std::uint64_t, proto::Envelope::Body::Which> answers;  // the reply kind each pending request wants
     std::map<std::uint64_t, Reply> replies;
     PeerTraffic traffic;
   };
