@@ -179,6 +179,7 @@ TEST_F(GmhRun, CompressionRaisesThePressureOfEveryCell) {
   EXPECT_NEAR(figures["coarse_dt_over_critical"].get<double>(), 2.0e-5 / coarse, 1e-12);
   EXPECT_NEAR(figures["time_step_ratio_alpha"].get<double>(), coarse / fine, 1e-9 * coarse / fine);
   EXPECT_GT(figures["fine_damping_fraction"].get<double>(), 0.0);
+  EXPECT_EQ(figures["answered_cell_jobs"].get<double>(), 40.0);  // 2 cells x 20 coarse steps, each once
 }
 
 std::vector<double> failedCellsSeries(const fs::path& run) {

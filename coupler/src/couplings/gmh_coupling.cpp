@@ -267,6 +267,7 @@ class GmhCoupling final : public Coupling {
     for (const auto& w : workers_)
       if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
     gatherFrom(ctx);
+    if (!ctx.replay) checkAnswers(ctx.exchange);
     noteFailures(ctx.exchange, ctx.replay);
     record(ctx);
     if (inelastic_) averageInelasticStress(ctx);
@@ -316,11 +317,39 @@ class GmhCoupling final : public Coupling {
 
   void gatherFrom(const ExchangeContext& ctx) {
     gathered_.clear();
+    answeredBy_.clear();
     for (const auto& w : workers_) {
       auto out = ctx.outputs.find(w);
       if (out == ctx.outputs.end()) continue;
+      const std::size_t first = gathered_.ids.size();
       for (auto r : out->second.getUnitCellResults()) append(r, w, ctx.exchange);
+      answeredBy_[w].assign(gathered_.ids.begin() + static_cast<std::ptrdiff_t>(first), gathered_.ids.end());
       for (auto a : out->second.getArrays()) noteFineTimeStep(a);
+    }
+  }
+
+  /// Every job went to one worker and comes back from it once: a lost answer
+  /// would leave a quadrature point with last step's stress, a doubled one
+  /// would hand FEM two stresses for it, both without a sign in the results.
+  /// (At setup, and for the replayed replies of a resume, no jobs are out.)
+  void checkAnswers(std::uint64_t exchange) {
+    for (const auto& [w, jobs] : jobs_) {
+      if (jobs.ids.empty()) continue;
+      std::multiset<std::uint32_t> sent(jobs.ids.begin(), jobs.ids.end());
+      const auto& got = answeredBy_[w];
+      for (std::uint32_t id : got) {
+        auto it = sent.find(id);
+        if (it == sent.end())
+          throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" + w +
+                                   "' answered unit cell " + std::to_string(id) +
+                                   (std::count(got.begin(), got.end(), id) > 1 ? " twice" : ", whose job it was not sent"));
+        sent.erase(it);
+      }
+      if (!sent.empty())
+        throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" + w +
+                                 "' left " + std::to_string(sent.size()) + " of its " + std::to_string(jobs.ids.size()) +
+                                 " jobs unanswered (unit cell " + std::to_string(*sent.begin()) + " first)");
+      answeredJobs_ += got.size();
     }
   }
 
@@ -351,6 +380,7 @@ class GmhCoupling final : public Coupling {
     if (fine_[1] > 0.0) f["fine_dt_over_critical"] = fine_[0] / fine_[1];
     if (coarseCritical > 0.0) f["coarse_dt_over_critical"] = dt_ / coarseCritical;
     if (fine_[1] > 0.0 && coarseCritical > 0.0) f["time_step_ratio_alpha"] = coarseCritical / fine_[1];
+    f["answered_cell_jobs"] = static_cast<double>(answeredJobs_);
     f["failed_cell_jobs"] = static_cast<double>(failedJobs_);
     f["failed_cells"] = static_cast<double>(failedCells_.size());
     if (failedJobs_ > 0)
@@ -376,6 +406,7 @@ class GmhCoupling final : public Coupling {
     out.vec(std::vector<std::uint32_t>(failedCells_.begin(), failedCells_.end()));
     if (inelastic_) inelastic_->save(out), out.pod(maxCorrection_);
     out.pod(fine_);  // the run's smallest fine critical step so far: Liu's time-step figures
+    out.pod(answeredJobs_);
   }
   void restore(util::BinaryReader& in) override {
     failedJobs_ = in.pod<std::uint64_t>("failed unit-cell jobs");
@@ -384,6 +415,7 @@ class GmhCoupling final : public Coupling {
     failedCells_ = std::set<std::uint32_t>(cells.begin(), cells.end());
     if (inelastic_) inelastic_->restore(in), maxCorrection_ = in.pod<double>("largest inelastic correction");
     fine_ = in.pod<decltype(fine_)>("fine time step figures");
+    answeredJobs_ = in.pod<std::uint64_t>("answered unit-cell jobs");
   }
 
  private:
@@ -480,12 +512,14 @@ class GmhCoupling final : public Coupling {
   std::map<std::uint32_t, std::string> owner_;              // cell id -> worker
   std::map<std::string, std::vector<std::uint32_t>> cellsOf_;  // worker -> its cells
   std::map<std::string, WorkerJobs> jobs_;
+  std::map<std::string, std::vector<std::uint32_t>> answeredBy_;  // this step's answers, per worker
   GatheredResults gathered_;
   std::vector<std::size_t> order_;  // recordCells: gathered index of each cell, by id
   std::vector<double> cellIds_, cellPorosity_, cellCoordination_, cellStress_;
   std::array<double, 6> fine_{};  // see noteFineTimeStep
   std::set<std::uint32_t> failing_, failedCells_;  // failing now; failed at least once
   std::uint64_t failedJobs_ = 0;
+  std::uint64_t answeredJobs_ = 0;
 };
 
 const bool registered = CouplingRegistry::add(
