@@ -6,12 +6,18 @@ namespace {
 constexpr int kLingerMs = 2000;      // let a last reply leave before a process exits
 constexpr int kSendTimeoutMs = 30000; // a peer that takes nothing for this long is gone
 constexpr int kHighWaterMark = 100000;
+// The largest frame a socket takes in (one Cap'n Proto segment; payloads of a
+// few hundred MiB are tested). A frame header that claims more, garbage from
+// anyone who reaches the endpoint, ends that connection before libzmq
+// allocates the claimed size.
+constexpr std::int64_t kMaxFrameBytes = std::int64_t{4} << 30;
 
 void configure(zmq::socket_t& s) {
   s.set(zmq::sockopt::linger, kLingerMs);
   s.set(zmq::sockopt::sndtimeo, kSendTimeoutMs);
   s.set(zmq::sockopt::sndhwm, kHighWaterMark);
   s.set(zmq::sockopt::rcvhwm, kHighWaterMark);
+  s.set(zmq::sockopt::maxmsgsize, kMaxFrameBytes);
 }
 
 bool sendFrames(zmq::socket_t& socket, std::vector<zmq::message_t>& frames) {

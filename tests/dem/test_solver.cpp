@@ -195,6 +195,7 @@ TEST(DemSolver, AResumedRunContinuesItsSnapshotFile) {
       const auto x = whole.readArray("/snapshots/" + step + "/" + array);
       const auto y = resumed.readArray("/snapshots/" + step + "/" + array);
       ASSERT_EQ(x.size(), y.size()) << step << " " << array;
+      if (x.empty()) continue;  // a snapshot without contacts: memcmp may not see null pointers
       EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << step << " " << array;
     }
   for (const std::string series : {"step", "time", "kinetic", "coordination"})
