@@ -12,7 +12,7 @@ shift || true
 command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang)" >&2; exit 2; }
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
   -DCMAKE_CXX_COMPILER=clang++ -DCOSIM_FUZZ=ON -DCOSIM_SANITIZE=address,undefined -DCOSIM_BUILD_TESTS=OFF \
-  -DCOSIM_BUILD_BENCH=OFF -DCOSIM_SOLVERS= >/dev/null
+  -DCOSIM_BUILD_BENCH=OFF -DCOSIM_SOLVERS='dem;fem;pd' >/dev/null
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || mapfile -t targets < <(sed -n 's/^set(COSIM_FUZZ_TARGETS \(.*\))$/\1/p' fuzz/CMakeLists.txt | tr ' ' '\n')
 status=0

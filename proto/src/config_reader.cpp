@@ -7,6 +7,9 @@
 #include <fstream>
 #include <sstream>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 namespace cosim::config {
 namespace {
 
@@ -29,6 +32,53 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
     }
   }
   return row[b.size()];
+}
+
+// Each document of a YAML stream: where it starts (its first token) and
+// where its top-level node is. yaml-cpp's LoadAll loops forever on a stream
+// whose next token starts no document (a stray ','): this stops at the first
+// document that consumes nothing.
+struct Document {
+  YAML::Mark start, root;
+};
+
+class Documents : public YAML::EventHandler {
+ public:
+  std::vector<Document> documents;
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    documents.push_back({mark, mark});
+    rootSeen_ = false;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override { node(mark); }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void node(const YAML::Mark& mark) {
+    if (!rootSeen_ && !documents.empty()) documents.back().root = mark;
+    rootSeen_ = true;
+  }
+  bool rootSeen_ = false;
+};
+
+std::vector<Document> documentsOf(const std::string& text) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  Documents handler;
+  while (parser.HandleNextDocument(handler)) {
+    const auto& d = handler.documents;
+    if (d.size() > 1 && d[d.size() - 1].start.pos == d[d.size() - 2].start.pos) break;
+  }
+  return handler.documents;
 }
 
 }  // namespace
@@ -54,18 +104,28 @@ void Diagnostics::throwIfAny() const {
 }
 
 YAML::Node loadYamlString(const std::string& text, const std::string& name) {
-  std::vector<YAML::Node> documents;
+  const auto where = [&name](const YAML::Mark& mark) { return name + ":" + std::to_string(mark.line + 1); };
+  YAML::Node first;
+  std::vector<Document> documents;
   try {
-    documents = YAML::LoadAll(text);
+    documents = documentsOf(text);
+    first = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    throw ConfigError({name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg});
+    throw ConfigError({where(e.mark) + ": YAML syntax error: " + e.msg});
   }
+  // yaml-cpp starts an empty document at a token it cannot place, without
+  // consuming it (a ',' after the top-level node): an error, not a document.
+  for (std::size_t k = 1; k < documents.size(); ++k)
+    if (documents[k].start.pos == documents[k - 1].start.pos) {
+      const auto at = static_cast<std::size_t>(std::max(documents[k].start.pos, 0));
+      throw ConfigError({where(documents[k].start) + ": YAML syntax error: unexpected '" + text.substr(at, 1) +
+                         "' outside a [ ] or { } list"});
+    }
   // A second document would be silently ignored by everyone reading the first.
   if (documents.size() > 1)
-    throw ConfigError({name + ":" + std::to_string(documents[1].Mark().line + 1) +
-                       ": a config is one YAML document; this file has " + std::to_string(documents.size()) +
-                       " (remove the '---' separator)"});
-  return documents.empty() ? YAML::Node() : documents.front();
+    throw ConfigError({where(documents[1].root) + ": a config is one YAML document; this file has " +
+                       std::to_string(documents.size()) + " (remove the '---' separator)"});
+  return first;
 }
 
 YAML::Node loadYamlFile(const std::string& path) {
@@ -107,7 +167,8 @@ MapReader::MapReader(const YAML::Node& node, std::string path, Diagnostics& diag
   }
   std::set<std::string> seen;
   for (const auto& kv : node) {
-    const auto key = kv.first.as<std::string>("");
+    if (!kv.first.IsScalar()) continue;  // finish() reports it
+    const auto key = kv.first.Scalar();
     if (!seen.insert(key).second) diag_.error(kv.first.Mark(), keyPath(key) + ": duplicate key");
   }
 }
@@ -184,6 +245,20 @@ std::optional<double> MapReader::optionalNumber(const std::string& key, Range ra
     error(key, "must be " + range.describe() + " (got " + *text + ")");
     return std::nullopt;
   }
+  return v;
+}
+
+std::optional<double> MapReader::numberIn(const YAML::Node& item, const std::string& key, Range range) {
+  const auto fail = [&](const std::string& message) {
+    diag_.error(item.Mark(), keyPath(key) + ": " + message);
+    return std::nullopt;
+  };
+  if (!item.IsScalar())
+    return fail(std::string("expected a number, got a ") + (item.IsMap() ? "map" : item.IsSequence() ? "list" : "null"));
+  const auto v = parseNumber(item.Scalar());
+  if (!v) return fail("expected a number, got '" + item.Scalar() + "'");
+  if (!std::isfinite(*v)) return fail("must be finite, got '" + item.Scalar() + "'");
+  if (!range.contains(*v)) return fail("must be " + range.describe() + " (got " + item.Scalar() + ")");
   return v;
 }
 
@@ -287,6 +362,10 @@ void MapReader::finish() {
   if (!valid_) return;
   std::vector<std::string> known(used_.begin(), used_.end());
   for (const auto& kv : node_) {
+    if (!kv.first.IsScalar()) {
+      diag_.error(kv.first.Mark(), (path_.empty() ? std::string("the file") : path_) + ": a key is a name, not a list or map");
+      continue;
+    }
     const auto key = kv.first.as<std::string>("");
     if (used_.count(key)) continue;
     std::string hint;

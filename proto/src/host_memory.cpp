@@ -7,6 +7,11 @@
 #include <limits>
 
 namespace cosim::util {
+namespace {
+double memoryCap = 0.0;
+}  // namespace
+
+void capAvailableMemory(double bytes) { memoryCap = bytes; }
 
 double availableMemoryBytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES);
@@ -16,7 +21,7 @@ double availableMemoryBytes() {
   rlimit limit{};
   if (::getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
     bytes = std::min(bytes, static_cast<double>(limit.rlim_cur));
-  return bytes;
+  return memoryCap > 0.0 ? std::min(bytes, memoryCap) : bytes;
 }
 
 }  // namespace cosim::util

@@ -46,7 +46,8 @@ std::map<std::string, double> readScales(config::MapReader& m) {
   }
   config::MapReader s(node, m.keyPath("length_scales"), m.diagnostics());
   for (const auto& entry : node) {
-    const auto name = entry.first.as<std::string>();
+    if (!entry.first.IsScalar()) continue;  // s.finish() reports it
+    const auto name = entry.first.Scalar();
     if (auto v = s.optionalNumber(name, config::Range::positive())) scales[name] = *v;
   }
   s.finish();

@@ -41,10 +41,27 @@ class Reader {
   Reader(std::istream& in, const std::string& path) : in_(in), path_(path) {}
   template <class T>
   T pod() {
+    // Not every byte is a bool or an enumerator: those go through flag() and enumerator().
+    static_assert(!std::is_same_v<T, bool> && !std::is_enum_v<T>);
     T v{};
     in_.read(reinterpret_cast<char*>(&v), sizeof(T));
     check();
     return v;
+  }
+  bool flag(const char* what) {
+    const auto b = pod<std::uint8_t>();
+    if (b > 1)
+      throw std::runtime_error(path_ + ": corrupt checkpoint (" + what + " is " + std::to_string(b) + ", not 0 or 1)");
+    return b == 1;
+  }
+  /// An enumerator of E written as its value: one of the first `count`.
+  template <class E>
+  E enumerator(int count, const char* what) {
+    const auto v = pod<std::underlying_type_t<E>>();
+    if (v < 0 || v >= count)
+      throw std::runtime_error(path_ + ": corrupt checkpoint (" + what + " " + std::to_string(v) + ", not below " +
+                               std::to_string(count) + ")");
+    return static_cast<E>(v);
   }
   /// A count of records of at least `bytesEach` bytes that must still fit in
   /// the file: a corrupt count must not allocate memory the file cannot fill.
@@ -123,10 +140,25 @@ void checkRestored(const DemSystem& s, const std::string& path) {
                                 p.id.size()})
     require(len == n, path, "particle arrays of different lengths");
   require(std::isfinite(s.time), path, "non-finite time");
+  require(std::isfinite(s.neighbors.skin) && s.neighbors.skin >= 0.0, path, "neighbour skin not finite and >= 0");
+  if (s.cell.enabled) {
+    const auto finiteMatrix = [](const Mat3& m) {
+      return std::all_of(m.begin(), m.end(), [](double v) { return std::isfinite(v); });
+    };
+    require(finiteMatrix(s.cell.h) && finiteMatrix(s.cell.velocityGradient) && finiteMatrix(s.neighbors.hRef), path,
+            "non-finite periodic cell");
+    require(s.cell.volume() > 0.0 && std::isfinite(s.cell.volume()), path, "periodic cell without a positive, finite volume");
+    for (int d = 0; d < 3; ++d) require(std::isfinite(s.cell.width(d)), path, "periodic cell of a non-finite width");
+  }
   requireBelow(p.material, s.materials.size(), path, "particle material");
-  for (std::size_t i = 0; i < n; ++i)
+  const auto finite = [](const Vec3& a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); };
+  for (std::size_t i = 0; i < n; ++i) {
     if (const std::string defect = p.defectOf(i); !defect.empty())
       require(false, path, "particle " + std::to_string(p.id[i]) + ": " + defect);
+    // The first half kick of the next step uses them.
+    require(finite(p.f[i]) && finite(p.torque[i]) && finite(p.fExt[i]), path,
+            "particle " + std::to_string(p.id[i]) + ": non-finite force or torque");
+  }
   const NeighborList& nl = s.neighbors;
   const std::size_t pairs = nl.partner.size();
   requireRows(nl.rowStart, n, pairs, false, path, "neighbour list");
@@ -245,9 +277,13 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   const auto magic = r.pod<std::array<char, 8>>();
   if (std::memcmp(magic.data(), kMagic, 8) != 0) throw std::runtime_error(path + ": not a dem_solver checkpoint");
   if (r.pod<std::uint32_t>() != kVersion) throw std::runtime_error(path + ": unsupported checkpoint version");
-  const std::string normal = r.str(), tangential = r.str(), damping = r.str();
-  s.setContactLaw(normal, tangential, damping);
-  s.setIntegrator(r.str());
+  const std::string normal = r.str(), tangential = r.str(), damping = r.str(), integrator = r.str();
+  try {
+    s.setContactLaw(normal, tangential, damping);
+    s.setIntegrator(integrator);
+  } catch (const std::invalid_argument& e) {  // an unknown name: the registries say which
+    throw std::runtime_error(path + ": corrupt checkpoint (" + e.what() + ")");
+  }
   s.time = r.pod<double>(); s.step = r.pod<std::uint64_t>(); s.dissipated = r.pod<double>();
   s.externalWork = r.pod<double>(); s.driveWork = r.pod<double>(); s.gravity = r.pod<Vec3>();
   s.materials = MaterialTable{};
@@ -271,7 +307,7 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   neighborArrays(io, s.neighbors);
   r.vec(s.neighbors.image);
   s.neighbors.hRef = r.pod<Mat3>();
-  s.cell.enabled = r.pod<bool>();
+  s.cell.enabled = r.flag("periodic cell flag");
   s.cell.h = r.pod<Mat3>();
   s.cell.velocityGradient = r.pod<Mat3>();
   s.massDamping = r.pod<double>();
@@ -295,7 +331,8 @@ void readCheckpoint(DemSystem& s, std::istream& in, const std::string& path) {
   for (std::size_t k = 0; k < s.planes.size(); ++k) {
     PlaneWall& p = s.planes[k];
     p.name = r.str();
-    p.point = r.pod<Vec3>(); p.normal = r.pod<Vec3>(); p.velocity = r.pod<Vec3>(); p.mode = r.pod<PlaneWall::Mode>();
+    p.point = r.pod<Vec3>(); p.normal = r.pod<Vec3>(); p.velocity = r.pod<Vec3>();
+    p.mode = r.enumerator<PlaneWall::Mode>(3, "plane wall mode");
     p.material = r.pod<std::uint16_t>(); p.servoStress = r.pod<double>(); p.servoArea = r.pod<double>();
     p.servoGain = r.pod<double>(); p.force = r.pod<Vec3>(); p.torque = r.pod<Vec3>();
     r.vec(s.planeShear[k]);

@@ -221,8 +221,11 @@ void NeighborList::binPeriodic(const Particles& p, const PeriodicCell& cell, dou
     members[i] = static_cast<std::uint32_t>(i);
     frac_[i] = mul(hInv, p.x[i]);
     int c[3];
-    for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<int>(std::floor(frac_[i][d] * g.dims[d])), 0, g.dims[d] - 1);
+    for (int d = 0; d < 3; ++d) {
+      // Clamped before the cast (a diverged state may be far outside, or NaN: cell 0).
+      const double f = std::floor(frac_[i][d] * g.dims[d]);
+      c[d] = f >= g.dims[d] - 1.0 ? g.dims[d] - 1 : f > 0.0 ? static_cast<int>(f) : 0;
+    }
     cellOf_[i] = static_cast<std::uint32_t>(g.index(c[0], c[1], c[2]));
   }
   g.fill(members, cellOf_);

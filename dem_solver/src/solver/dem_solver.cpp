@@ -265,7 +265,13 @@ void DemSolver::advance(const wire::AdvanceRequest& request, proto::CouplingData
     // A drive sets its particles' velocities; holding them on that path is
     // work of the prescribed motion, counted in the step (DemSystem::advance).
     drive(request.dt);
-    system_.advance(request.dt);
+    try {
+      system_.advance(request.dt);
+    } catch (const std::runtime_error& e) {  // a diverged state: a particle the neighbour grid cannot place
+      throw SolverError(Code::SOLVER_FAILURE, "step " + std::to_string(system_.step + 1) + ": " + e.what());
+    } catch (const std::invalid_argument& e) {  // a periodic cell deformed below twice the cut-off
+      throw SolverError(Code::SOLVER_FAILURE, "step " + std::to_string(system_.step + 1) + ": " + e.what());
+    }
     checkServoWalls(request.dt);
     accumulateWallContacts();
     hybrids_.accumulate(system_, request.dt);

@@ -369,16 +369,19 @@ YAML::Node findSolverParams(const std::string& sceneYaml, const std::string& sce
   } catch (const YAML::ParserException& e) {
     throw SceneError(sceneFile + ":" + std::to_string(e.mark.line + 1) + ": YAML: " + e.msg);
   }
-  const YAML::Node solvers = root["solvers"];
+  const YAML::Node solvers = root.IsMap() ? root["solvers"] : YAML::Node();
   if (!solvers || !solvers.IsSequence()) throw SceneError(sceneFile + ": no 'solvers:' list");
   for (const auto& s : solvers)
-    if (s["name"] && s["name"].IsScalar() && s["name"].Scalar() == instance) {
+    if (s.IsMap() && s["name"] && s["name"].IsScalar() && s["name"].Scalar() == instance) {
       if (s["kind"] && !(s["kind"].IsScalar() && s["kind"].Scalar() == "dem"))
         throw SceneError(sceneFile + ":" + std::to_string(s["kind"].Mark().line + 1) + ": solver '" + instance +
                          "' has kind '" + (s["kind"].IsScalar() ? s["kind"].Scalar() : "(not a name)") + "', not dem");
       YAML::Node params = s["params"];
       if (!params) throw SceneError(sceneFile + ":" + std::to_string(s.Mark().line + 1) + ": solver '" + instance +
                                     "' has no params: section");
+      if (!params.IsMap())
+        throw SceneError(sceneFile + ":" + std::to_string(params.Mark().line + 1) + ": solver '" + instance +
+                         "': params: expected a map of the dem solver's parameters");
       return params;
     }
   throw SceneError(sceneFile + ": no solver named '" + instance + "' in solvers:");

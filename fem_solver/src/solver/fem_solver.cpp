@@ -18,6 +18,7 @@
 #include "cosim/fem/coupling/volume_zone.hpp"
 #include "cosim/fem/solver/scene_params.hpp"
 #include "cosim/fem/solver/snapshot_writer.hpp"
+#include "cosim/util/host_memory.hpp"
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/coupling_forces.hpp"
 #include "cosim/wire/weight_profile.hpp"
@@ -70,6 +71,15 @@ auto atSection(ParamMap& section, Make make) {
   }
 }
 
+/// A lower bound of a model's memory: per node its state and two sparse
+/// matrix rows of a 27-node stencil (stiffness and mass), per hexahedron its
+/// quadrature points' geometry and material states. Checked before a box
+/// mesh is allocated, so a mistyped division count is refused, not a bad_alloc.
+double meshBytes(double nodes, double elements) {
+  constexpr double kBytesPerNode = 4096.0, kBytesPerElement = 4096.0;
+  return nodes * kBytesPerNode + elements * kBytesPerElement;
+}
+
 /// A relative Gmsh file resolves against the scene's directory (`baseDir`), then as given.
 Mesh readMesh(ParamMap p, const std::string& baseDir) {
   if (p.has("gmsh")) {
@@ -97,6 +107,13 @@ Mesh readMesh(ParamMap p, const std::string& baseDir) {
     std::ostringstream m;
     m << b.path() << ".divisions give " << nodes << " nodes, more than the " << std::numeric_limits<Index>::max()
       << " one mesh can number";
+    b.fail(b.get("divisions"), m.str());
+  }
+  const double bytes = meshBytes(nodes, n[0] * n[1] * n[2]), memory = util::availableMemoryBytes();
+  if (bytes > memory) {
+    std::ostringstream m;
+    m << b.path() << ".divisions give " << nodes << " nodes and " << n[0] * n[1] * n[2] << " hexahedra, about "
+      << bytes / 1e9 << " GB for the model: more than the " << memory / 1e9 << " GB of memory available; use fewer divisions";
     b.fail(b.get("divisions"), m.str());
   }
   for (int d = 0; d < 3; ++d) div[static_cast<std::size_t>(d)] = static_cast<int>(n[d]);
@@ -803,23 +820,37 @@ void FemSolver::restore(const std::string& path) {
   get(&s.externalWork, 8);
   get(&s.viscousDissipated, 8);
   for (auto* v : {&s.u, &s.v, &s.a, &s.fApplied, &s.fViscous}) get(v->data(), 8 * v->size());
+  // The GMH state goes into copies too: a bad file leaves the solver as it was.
+  std::vector<double> stresses, pointF;
+  double pendingDt = 0.0;
   if (external_) {
-    get(external_->stresses().data(), 8 * external_->stresses().size());
-    get(pointF_.data(), 8 * pointF_.size());
-    get(&pendingDt_, 8);
+    stresses.resize(external_->stresses().size());
+    pointF.resize(pointF_.size());
+    get(stresses.data(), 8 * stresses.size());
+    get(pointF.data(), 8 * pointF.size());
+    get(&pendingDt, 8);
     std::uint64_t started = 0;
     get(&started, 8);
     if (started != 0 && started != dofs)
       throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a split step of " + std::to_string(started) +
                                              " dofs, the model has " + std::to_string(dofs));
+    // A step predicted (pendingDt > 0) is one whose start was kept, and only then.
+    if (!(pendingDt >= 0.0) || (started == 0) != (pendingDt == 0.0))
+      throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a pending step of " + show(pendingDt) +
+                                             " s with a split step of " + std::to_string(started) + " dofs");
     s.uStepStart.resize(started);
     get(s.uStepStart.data(), 8 * started);
   }
-  if (!std::isfinite(s.time) || !std::isfinite(s.externalWork) || !std::isfinite(pendingDt_))
+  if (!std::isfinite(s.time) || !std::isfinite(s.externalWork) || !std::isfinite(pendingDt))
     throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a non-finite time, work or step");
   for (const auto* v : {&s.u, &s.v, &s.a})
     for (const double x : *v)
       if (!std::isfinite(x)) throw SolverError(Code::BAD_INPUT, "restore: " + path + " holds a non-finite displacement, velocity or acceleration");
+  if (external_) {
+    external_->stresses() = std::move(stresses);
+    pointF_ = std::move(pointF);
+    pendingDt_ = pendingDt;
+  }
   state_ = std::move(s);
   if (snapshots_) snapshots_->resumeAt(state_.step);
 }

@@ -136,6 +136,15 @@ std::string bodySizeProblem(const BodySpec& spec, double particles, std::string&
   return {};
 }
 
+std::string bondCountProblem(const BodySpec& spec, double particles, double bonds) {
+  BodySize size;
+  size.particles = particles;
+  size.bonds = bonds;
+  size.bytes = particles * kBytesPerParticle + bonds * bytesPerBond(spec);
+  const double memory = util::availableMemoryBytes();
+  return size.bytes <= memory ? std::string() : bondProblem(spec, size, memory);
+}
+
 bool insideShape(const BodySpec& spec, const double x[3], double tol) {
   switch (spec.shape) {
     case Shape::Box:

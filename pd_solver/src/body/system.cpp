@@ -153,8 +153,13 @@ std::vector<std::uint32_t> PdSystem::select(const Selection& where) const {
 // fraction of about 1e-13 and do not count here.
 void PdSystem::buildBody(std::size_t b) {
   Body& body = bodies_[b];
-  body.bonds = buildBonds(particles_, body.begin, body.end, body.horizon, body.spacing,
-                          body.spec.options.partialVolume);
+  const auto particles = static_cast<double>(body.end - body.begin);
+  body.bonds = buildBonds(particles_, body.begin, body.end, body.horizon, body.spacing, body.spec.options.partialVolume,
+                          [&](std::size_t bonds) {
+                            if (const auto why = bondCountProblem(body.spec, particles, static_cast<double>(bonds));
+                                !why.empty())
+                              throw EntryError(EntryError::Entry::Body, b, "body '" + body.spec.name + "': " + why);
+                          });
   const auto& bonds = body.bonds;
   for (std::size_t q = 0; q < bonds.rows(); ++q) {
     double partners = 0.0;

@@ -10,7 +10,7 @@
 namespace cosim::pd {
 
 Bonds buildBonds(const Particles& p, std::size_t begin, std::size_t end, double horizon,
-                 double spacing, PartialVolume rule) {
+                 double spacing, PartialVolume rule, const std::function<void(std::size_t)>& counted) {
   auto partialVolume = [rule](double r, double delta, double h) { return partialVolumeFraction(r, delta, h, rule); };
   Bonds bonds;
   bonds.begin = begin;
@@ -19,8 +19,12 @@ Bonds buildBonds(const Particles& p, std::size_t begin, std::size_t end, double 
   double lo[3] = {1e300, 1e300, 1e300};
   for (std::size_t i = begin; i < end; ++i)
     for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p.reference[3 * i + k]);
+  // Clamped, so that the cast stays defined for a cloud spread over more
+  // cells than a long counts: its outermost particles share the last cell,
+  // where every pair is still tested by its distance.
   auto cellOf = [&](std::size_t i, int k) {
-    return static_cast<long>(std::floor((p.reference[3 * i + k] - lo[k]) / reach));
+    constexpr double kMaxCell = 1099511627776.0;  // 2^40
+    return static_cast<long>(std::min(std::floor((p.reference[3 * i + k] - lo[k]) / reach), kMaxCell));
   };
   auto key = [](long a, long b, long c) {
     return (static_cast<unsigned long long>(a) << 42) ^ (static_cast<unsigned long long>(b) << 21) ^
@@ -69,6 +73,7 @@ Bonds buildBonds(const Particles& p, std::size_t begin, std::size_t end, double 
   }
   for (std::size_t i = 0; i < n; ++i) bonds.offset[i + 1] += bonds.offset[i];
   const std::size_t total = bonds.offset[n];
+  if (counted) counted(total);
   bonds.neighbor.resize(total);
   bonds.length.resize(total);
   bonds.volumeFraction.resize(total);

@@ -58,8 +58,13 @@ class HertzIndentation final : public Reference {
       if (!d.IsSequence() || d.size() == 0) m.error("depths", "expected a list of positive depths in metres");
       else {
         depths_.clear();
-        for (const auto& v : d) depths_.push_back(v.as<double>());
-        if (!std::is_sorted(depths_.begin(), depths_.end()) || !(depths_.front() > 0.0))
+        bool numbers = true;
+        for (const auto& v : d) {
+          const auto depth = m.numberIn(v, "depths");
+          numbers = numbers && depth.has_value();
+          depths_.push_back(depth.value_or(0.0));
+        }
+        if (numbers && (!std::is_sorted(depths_.begin(), depths_.end()) || !(depths_.front() > 0.0)))
           m.error("depths", "depths must be positive and increasing");
       }
     }

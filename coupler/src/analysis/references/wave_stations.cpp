@@ -108,7 +108,7 @@ class WaveStations final : public Reference {
         m.errorAt(p.Mark(), "analysis.stations: each station is a point [x, y, z]");
         return;
       }
-      for (const auto& c : p) stations_.push_back(c.as<double>());
+      for (const auto& c : p) stations_.push_back(m.numberIn(c, "stations").value_or(0.0));
     }
   }
 

@@ -71,6 +71,13 @@ double latticeParticleEstimate(const BodySpec& spec);
 /// not fit, "horizon" when their bonds do not.
 std::string bodySizeProblem(const BodySpec& spec, double particles, std::string& key);
 
+/// Empty when the bonds counted for a body of `particles` particles fit the
+/// available memory with their model's arrays; otherwise why not (the key to
+/// change is 'horizon'). A points body's families can be far larger than the
+/// lattice estimate of bodySizeProblem: clustered points, or volumes in
+/// another unit than the positions, bond every pair.
+std::string bondCountProblem(const BodySpec& spec, double particles, double bonds);
+
 /// Reads "x y z volume" lines ('#' starts a comment). Throws naming file and
 /// line for unreadable lines, NaN/Inf values or non-positive volumes.
 PointCloud readPointFile(const std::string& path);

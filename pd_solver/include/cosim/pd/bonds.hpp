@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "cosim/pd/particles.hpp"
@@ -48,8 +49,11 @@ struct Bonds {
 
 /// Builds the family of every particle in [begin, end) within horizon delta of
 /// its reference position, restricted to that range (bodies do not bond).
-/// Partner volumes are scaled by partialVolumeFraction.
+/// Partner volumes are scaled by partialVolumeFraction. `counted`, when
+/// given, sees the number of bonds before their arrays are allocated (and
+/// may throw to refuse them).
 Bonds buildBonds(const Particles& particles, std::size_t begin, std::size_t end, double horizon,
-                 double spacing, PartialVolume rule = PartialVolume::Centered);
+                 double spacing, PartialVolume rule = PartialVolume::Centered,
+                 const std::function<void(std::size_t)>& counted = {});
 
 }  // namespace cosim::pd

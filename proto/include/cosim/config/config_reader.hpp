@@ -84,6 +84,9 @@ class MapReader {
   /// scale the way the papers do (`10d`, `1.5dx` with scales {d: 0.2, dx: 0.4}).
   std::optional<double> optionalLength(const std::string& key, const std::map<std::string, double>& scales,
                                        Range range = {});
+  /// An item of the list under `key` (a point's coordinate, one of several
+  /// depths), checked as optionalNumber and reported at the item's line.
+  std::optional<double> numberIn(const YAML::Node& item, const std::string& key, Range range = {});
   long integer(const std::string& key, long fallback, long min, long max);
   std::optional<long> optionalInteger(const std::string& key, long min, long max);
   bool boolean(const std::string& key, bool fallback);

@@ -6,7 +6,12 @@
 namespace cosim::util {
 
 /// The machine's physical memory, or the address-space limit (ulimit -v) when
-/// that is lower; infinite when neither can be read.
+/// that is lower, or the cap below; infinite when none can be read.
 double availableMemoryBytes();
+
+/// Caps what availableMemoryBytes() reports in this process (0: no cap). The
+/// fuzz targets set one, so that the solvers' own size checks refuse the
+/// scenes that would take seconds to build.
+void capAvailableMemory(double bytes);
 
 }  // namespace cosim::util
