@@ -50,7 +50,11 @@ class GmhPoolAnswers : public ::testing::Test {
     const YAML::Node node = YAML::Load("{name: cells, kind: gmh, fem: block, workers: [a, b]}");
     config::Diagnostics diagnostics("scene.yaml");
     config::MapReader m(node, "couplings.cells", diagnostics);
-    const std::vector<SolverSpec> solvers{{"block", "fem"}, {"a", "dem"}, {"b", "dem"}};
+    std::vector<SolverSpec> solvers(3);
+    for (std::size_t k = 0; k < solvers.size(); ++k) {
+      solvers[k].name = std::vector<std::string>{"block", "a", "b"}[k];
+      solvers[k].kind = k == 0 ? "fem" : "dem";
+    }
     coupling_ = CouplingRegistry::create("gmh", "coupling kind", "cells", m, solvers);
     diagnostics.throwIfAny();
     // Setup: a holds cells 0 and 1, b holds 2; then FEM sends a job for each.
