@@ -26,19 +26,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const bool prepared = (fuzz::prepareSolverTarget(), true);
   (void)prepared;
   if (size > fuzz::kMaxInputBytes) return -1;
-  const auto path = fuzz::writeScratch(kFile, data, size);
   dem::DemSolver solver;
-  try {
-    solver.restore(path.string());
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {kFile});
-    return 0;
-  }
-  try {
-    fuzz::advance(solver, 1, 1e-9);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e);
-  }
+  fuzz::resume(solver, data, size, kFile, 1e-9);
   return 0;
 }
 

@@ -60,18 +60,7 @@ fem::FemSolver& solver(bool external) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0 || size > fuzz::kMaxInputBytes) return -1;
   fem::FemSolver& fem = solver(data[0] % 2 == 1);
-  const auto path = fuzz::writeScratch(kFile, data + 1, size - 1);
-  try {
-    fem.restore(path.string());
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {kFile});
-    return 0;
-  }
-  try {
-    fuzz::advance(fem, 1, 1e-7);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e);
-  }
+  fuzz::resume(fem, data + 1, size - 1, kFile, 1e-7);
   return 0;
 }
 

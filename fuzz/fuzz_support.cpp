@@ -177,6 +177,16 @@ bool namesOnlyPlainFiles(const YAML::Node& node) {
   }
 }
 
+bool takesScene(std::string_view text) {
+  // A '/' in a value is written as one or as an escape of a quoted scalar.
+  if (text.find_first_of("/\\") == std::string_view::npos) return true;
+  try {
+    return namesOnlyPlainFiles(YAML::Load(std::string(text)));
+  } catch (const YAML::Exception&) {
+    return true;
+  }
+}
+
 std::string sourceText(const std::string& relative) {
   const fs::path path = fs::path(COSIM_FUZZ_SOURCE_DIR) / relative;
   std::ifstream in(path);
@@ -209,7 +219,9 @@ void prepareSolverTarget() {
 }
 
 void setUp(wire::Solver& solver, std::string_view sceneYaml) {
+  // Emptied for every setup: fuzzed snapshot names would pile up files.
   const fs::path runDir = scratchDir() / "run";
+  fs::remove_all(runDir);
   fs::create_directories(runDir);
   wire::SetupContext context{kSceneFile, std::string(sceneYaml), kInstance, runDir.string(), {}, false,
                              scratchDir().string()};
@@ -225,6 +237,20 @@ void advance(wire::Solver& solver, std::uint32_t steps, double dt, proto::Coupli
   request.inputs = inputs;
   capnp::MallocMessageBuilder outputs;
   solver.advance(request, outputs.initRoot<proto::CouplingData>());
+}
+
+void resume(wire::Solver& solver, const std::uint8_t* data, std::size_t size, const std::string& file, double dt) {
+  const auto path = writeScratch(file, data, size);
+  try {
+    solver.restore(path.string());
+  } catch (const wire::SolverError& e) {
+    return userError(e, {file});
+  }
+  try {
+    advance(solver, 1, dt);
+  } catch (const wire::SolverError& e) {
+    userError(e);
+  }
 }
 
 void userError(const std::exception& e, std::initializer_list<std::string_view> files) {

@@ -52,6 +52,10 @@ void writeFixtures();
 /// files of scratchDir() (relative names resolve there first), never a
 /// device or a large file elsewhere that a fuzzed path could name.
 bool namesOnlyPlainFiles(const YAML::Node& node);
+/// Whether a params target takes the scene text: not when it parses and a
+/// value names a path (namesOnlyPlainFiles). Text that does not parse is
+/// taken: reporting it is the setup's job.
+bool takesScene(std::string_view text);
 
 /// The `solvers:` entry named `instance` of a shipped config (path relative to
 /// the source tree); the params targets' seeds edit such entries to stay small.
@@ -67,10 +71,16 @@ std::string sourceText(const std::string& relative);
 void prepareSolverTarget();
 
 /// The setup the coupler would ask for: `sceneYaml`, instance kInstance, scene
-/// file kSceneFile, scene directory and run directory in scratchDir(), no inputs.
+/// file kSceneFile, scene directory scratchDir(), an empty run directory in
+/// it, no inputs.
 void setUp(wire::Solver& solver, std::string_view sceneYaml);
 /// One advance of `steps` steps of `dt` from the solver's time.
 void advance(wire::Solver& solver, std::uint32_t steps, double dt, proto::CouplingData::Reader inputs = {});
+
+/// A resume from the checkpoint bytes, as `coupler run --resume` asks for it:
+/// written to scratchDir()/file and restored (a SolverError must name the
+/// file), then, once accepted, one step of dt (a SolverError of any message).
+void resume(wire::Solver& solver, const std::uint8_t* data, std::size_t size, const std::string& file, double dt);
 
 /// A user error as the readers report them names the file at fault (scene,
 /// mesh, particle, point or checkpoint file): `e` must name one of `files`,

@@ -46,18 +46,7 @@ pd::PdSolver& solver() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size > fuzz::kMaxInputBytes) return -1;
   pd::PdSolver& pd = solver();
-  const auto path = fuzz::writeScratch(kFile, data, size);
-  try {
-    pd.restore(path.string());
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {kFile});
-    return 0;
-  }
-  try {
-    fuzz::advance(pd, 1, 0.5 * pd.criticalDt());
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e);
-  }
+  fuzz::resume(pd, data, size, kFile, 0.5 * pd.criticalDt());
   return 0;
 }
 

@@ -92,7 +92,7 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       snapshots_ = std::make_unique<SnapshotWriter>(file.string(), context.resuming);
       if (!context.resuming) snapshots_->write(system_);
     } catch (const std::exception& e) {
-      throw SolverError(Code::BAD_INPUT, std::string("snapshots: ") + e.what());
+      throw SolverError(Code::BAD_INPUT, sceneFile_ + ": solver '" + instance_ + "': params.snapshots.file: " + e.what());
     }
   }
   ready_ = true;

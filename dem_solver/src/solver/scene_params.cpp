@@ -460,8 +460,13 @@ void configure(const YAML::Node& node, const std::string& sceneFile, DemSystem& 
     system.bonds.stiffness = b.positive("stiffness");
     const double factor = b.number("neighbours", 1.01);
     if (factor < 1.0 || factor > 2.0) b.fail("neighbours", "must lie in [1, 2] (times r_i + r_j)");
-    if (system.bonds.bondNeighbours(system.particles, system.cell, factor) == 0)
-      b.fail("neighbours", "no particle pairs are close enough to bond");
+    std::size_t bonded = 0;
+    try {
+      bonded = system.bonds.bondNeighbours(system.particles, system.cell, factor);
+    } catch (const std::invalid_argument& e) {  // the bond search reaches farther than the cell allows
+      b.fail("neighbours", e.what());
+    }
+    if (bonded == 0) b.fail("neighbours", "no particle pairs are close enough to bond");
   }
   const YamlSection snap = params.child("snapshots", {"every", "file"});
   settings.snapshotEvery = snap.integer("every", 0);

@@ -513,7 +513,11 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
       if (outputEvery_ < 0) o.fail(o.node(), o.path() + ".every must be >= 0");
       if (outputEvery_ > 0) {
         const std::filesystem::path dir = context.runDir.empty() ? std::filesystem::path(".") : std::filesystem::path(context.runDir);
-        snapshots_ = std::make_unique<SnapshotWriter>(dir / file, *model_, context.resuming);
+        try {
+          snapshots_ = std::make_unique<SnapshotWriter>(dir / file, *model_, context.resuming);
+        } catch (const std::runtime_error& e) {  // the HDF5 file cannot be created there
+          o.fail(o.node(), o.path() + ".file: " + e.what());
+        }
       }
     }
     p.finish();
@@ -534,8 +538,8 @@ void FemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
     fillCouplingOutputs(outputs, true);
   } catch (const InputError& e) {
     throw SolverError(Code::BAD_INPUT, e.what());
-  } catch (const SolveError& e) {
-    throw SolverError(Code::SOLVER_FAILURE, e.what());
+  } catch (const SolveError& e) {  // the initial state the params give cannot be evaluated
+    throw SolverError(Code::SOLVER_FAILURE, context.sceneFile + ": solver '" + context.instance + "': " + e.what());
   }
 }
 

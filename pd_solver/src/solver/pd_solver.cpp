@@ -110,8 +110,12 @@ void PdSolver::setup(const cosim::wire::SetupContext& ctx, cosim::proto::Couplin
   if (config_.outputEvery > 0) {
     std::filesystem::path p = config_.outputFile;
     if (p.is_relative() && !ctx.runDir.empty()) p = std::filesystem::path(ctx.runDir) / p;
-    snapshots_ = std::make_unique<SnapshotWriter>(p, ctx.resuming);
-    if (!ctx.resuming) snapshots_->write(system_);
+    try {
+      snapshots_ = std::make_unique<SnapshotWriter>(p, ctx.resuming);
+      if (!ctx.resuming) snapshots_->write(system_);
+    } catch (const std::runtime_error& e) {  // the HDF5 file cannot be created there
+      throw SolverError(Error::Code::BAD_INPUT, file + ": solver '" + ctx.instance + "': params.output.file: " + e.what());
+    }
   }
   ready_ = true;
   startEnergyBalance();
