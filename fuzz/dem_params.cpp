@@ -57,16 +57,8 @@ void prepare() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   prepare();
-  const auto text = fuzz::inputText(data, size);
-  if (!text) return -1;
-  if (!fuzz::takesScene(*text)) return -1;
   dem::DemSolver solver;
-  try {
-    fuzz::setUp(solver, *text);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {fuzz::kSceneFile, "particles.csv", "cell.ckpt"});
-  }
-  return 0;
+  return fuzz::setUpScene(solver, data, size, {fuzz::kSceneFile, "particles.csv", "cell.ckpt"});
 }
 
 namespace cosim::fuzz {

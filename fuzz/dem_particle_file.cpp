@@ -29,15 +29,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace cosim;
   static const bool prepared = (fuzz::prepareSolverTarget(), true);
   (void)prepared;
-  if (size > fuzz::kMaxInputBytes) return -1;
-  fuzz::writeScratch("particles.csv", data, size);
   dem::DemSolver solver;
-  try {
-    fuzz::setUp(solver, kScene);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {"particles.csv", fuzz::kSceneFile});
-  }
-  return 0;
+  return fuzz::setUpWithFile(solver, kScene, "particles.csv", data, size);
 }
 
 namespace cosim::fuzz {

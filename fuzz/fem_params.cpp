@@ -21,16 +21,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace cosim;
   static const bool prepared = (fuzz::prepareSolverTarget(), true);
   (void)prepared;
-  const auto text = fuzz::inputText(data, size);
-  if (!text) return -1;
-  if (!fuzz::takesScene(*text)) return -1;
   fem::FemSolver solver;
-  try {
-    fuzz::setUp(solver, *text);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {fuzz::kSceneFile, "bar.msh"});
-  }
-  return 0;
+  return fuzz::setUpScene(solver, data, size, {fuzz::kSceneFile, "bar.msh"});
 }
 
 namespace cosim::fuzz {

@@ -83,61 +83,6 @@ const char* const kParticleCsv =
     "0.0021,0,0,0.001,-0.1,0,0\n"
     "0,0.0023,0,0.0012,0,0,0\n";
 
-// Two hexahedra along x with named end faces and volume (Gmsh 4.1 ASCII).
-const char* const kBarMsh = R"($MeshFormat
-4.1 0 8
-$EndMeshFormat
-$PhysicalNames
-3
-2 1 "left"
-2 2 "right"
-3 3 "solid"
-$EndPhysicalNames
-$Entities
-0 0 2 1
-1 0 0 0 0 1 1 1 1 0
-2 2 0 0 2 1 1 1 2 0
-1 0 0 0 2 1 1 1 3 0
-$EndEntities
-$Nodes
-1 12 1 12
-3 1 0 12
-1
-2
-3
-4
-5
-6
-7
-8
-9
-10
-11
-12
-0 0 0
-1 0 0
-2 0 0
-0 1 0
-1 1 0
-2 1 0
-0 0 1
-1 0 1
-2 0 1
-0 1 1
-1 1 1
-2 1 1
-$EndNodes
-$Elements
-3 4 1 4
-2 1 3 1
-1 1 4 10 7
-2 2 3 1
-2 3 6 12 9
-3 1 5 2
-3 1 2 5 4 7 8 11 10
-4 2 3 6 5 8 9 12 11
-$EndElements
-)";
 
 const char* const kPointFile =
     "# x y z volume\n"
@@ -156,7 +101,7 @@ const char* const kPointFile =
 
 void writeFixtures() {
   writeScratch("particles.csv", kParticleCsv);
-  writeScratch("bar.msh", kBarMsh);
+  writeScratch("bar.msh", barMesh());
   writeScratch("points.txt", kPointFile);
 }
 
@@ -186,6 +131,8 @@ bool takesScene(std::string_view text) {
     return true;
   }
 }
+
+std::string barMesh() { return sourceText("tests/fem/data/two_hex_bar.msh"); }
 
 std::string sourceText(const std::string& relative) {
   const fs::path path = fs::path(COSIM_FUZZ_SOURCE_DIR) / relative;
@@ -237,6 +184,28 @@ void advance(wire::Solver& solver, std::uint32_t steps, double dt, proto::Coupli
   request.inputs = inputs;
   capnp::MallocMessageBuilder outputs;
   solver.advance(request, outputs.initRoot<proto::CouplingData>());
+}
+
+int setUpScene(wire::Solver& solver, const std::uint8_t* data, std::size_t size, std::initializer_list<std::string_view> files) {
+  const auto text = inputText(data, size);
+  if (!text || !takesScene(*text)) return -1;
+  try {
+    setUp(solver, *text);
+  } catch (const wire::SolverError& e) {
+    userError(e, files);
+  }
+  return 0;
+}
+
+int setUpWithFile(wire::Solver& solver, std::string_view sceneYaml, const std::string& file, const std::uint8_t* data, std::size_t size) {
+  if (size > kMaxInputBytes) return -1;
+  writeScratch(file, data, size);
+  try {
+    setUp(solver, sceneYaml);
+  } catch (const wire::SolverError& e) {
+    userError(e, {file, kSceneFile});
+  }
+  return 0;
 }
 
 void resume(wire::Solver& solver, const std::uint8_t* data, std::size_t size, const std::string& file, double dt) {

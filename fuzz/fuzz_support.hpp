@@ -42,9 +42,10 @@ std::filesystem::path writeScratch(const std::string& name, std::string_view tex
 Bytes readBytes(const std::filesystem::path& path);
 
 /// Small files in scratchDir() that params may name: particles.csv (DEM),
-/// bar.msh (FEM), points.txt (PD). Their texts are seeds of the file targets.
+/// bar.msh (FEM, the Gmsh reader test's two-hexahedron bar), points.txt
+/// (PD). Their texts are seeds of the file targets.
 extern const char* const kParticleCsv;
-extern const char* const kBarMsh;
+std::string barMesh();
 extern const char* const kPointFile;
 void writeFixtures();
 
@@ -74,6 +75,15 @@ void prepareSolverTarget();
 /// file kSceneFile, scene directory scratchDir(), an empty run directory in
 /// it, no inputs.
 void setUp(wire::Solver& solver, std::string_view sceneYaml);
+/// The params targets' step: a scene text (refused unread unless
+/// takesScene) set up; a SolverError must name one of `files` (the scene
+/// file kSceneFile among them).
+/// Returns libFuzzer's verdict (-1: not taken into the corpus).
+int setUpScene(wire::Solver& solver, const std::uint8_t* data, std::size_t size, std::initializer_list<std::string_view> files);
+/// The file targets' step: the bytes written to scratchDir()/file and the
+/// scene `sceneYaml`, which names it, set up; a SolverError must name the
+/// file or the scene.
+int setUpWithFile(wire::Solver& solver, std::string_view sceneYaml, const std::string& file, const std::uint8_t* data, std::size_t size);
 /// One advance of `steps` steps of `dt` from the solver's time.
 void advance(wire::Solver& solver, std::uint32_t steps, double dt, proto::CouplingData::Reader inputs = {});
 

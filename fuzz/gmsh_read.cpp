@@ -59,7 +59,7 @@ namespace cosim::fuzz {
 // hand-made files with what it lacks: physical points and curves, several
 // node blocks, an unknown section, CRLF line ends.
 std::vector<std::vector<std::uint8_t>> seeds() {
-  std::vector<std::vector<std::uint8_t>> out{bytesOf(kBarMsh)};
+  std::vector<std::vector<std::uint8_t>> out{bytesOf(barMesh())};
   const std::string cube = R"($MeshFormat
 4.1 0 8
 $EndMeshFormat
@@ -108,7 +108,7 @@ $EndElements
 )";
   out.push_back(bytesOf(cube));
   std::string crlf;
-  for (const char c : std::string(kBarMsh)) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  for (const char c : barMesh()) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
   out.push_back(bytesOf(crlf));
   return out;
 }

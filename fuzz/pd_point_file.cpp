@@ -27,15 +27,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace cosim;
   static const bool prepared = (fuzz::prepareSolverTarget(), true);
   (void)prepared;
-  if (size > fuzz::kMaxInputBytes) return -1;
-  fuzz::writeScratch("points.txt", data, size);
   pd::PdSolver solver;
-  try {
-    fuzz::setUp(solver, kScene);
-  } catch (const wire::SolverError& e) {
-    fuzz::userError(e, {"points.txt", fuzz::kSceneFile});
-  }
-  return 0;
+  return fuzz::setUpWithFile(solver, kScene, "points.txt", data, size);
 }
 
 namespace cosim::fuzz {

@@ -3,6 +3,7 @@
 // oriented outward, and malformed files give file:line errors.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <sstream>
 #include <tuple>
 
@@ -12,60 +13,15 @@
 namespace cosim::fem {
 namespace {
 
-const char* kBar = R"($MeshFormat
-4.1 0 8
-$EndMeshFormat
-$PhysicalNames
-3
-2 1 "left"
-2 2 "right"
-3 3 "solid"
-$EndPhysicalNames
-$Entities
-0 0 2 1
-1 0 0 0 0 1 1 1 1 0
-2 2 0 0 2 1 1 1 2 0
-1 0 0 0 2 1 1 1 3 0
-$EndEntities
-$Nodes
-1 12 1 12
-3 1 0 12
-1
-2
-3
-4
-5
-6
-7
-8
-9
-10
-11
-12
-0 0 0
-1 0 0
-2 0 0
-0 1 0
-1 1 0
-2 1 0
-0 0 1
-1 0 1
-2 0 1
-0 1 1
-1 1 1
-2 1 1
-$EndNodes
-$Elements
-3 4 1 4
-2 1 3 1
-1 1 4 10 7
-2 2 3 1
-2 3 6 12 9
-3 1 5 2
-3 1 2 5 4 7 8 11 10
-4 2 3 6 5 8 9 12 11
-$EndElements
-)";
+// Two hexahedra along x with named end faces and volume (Gmsh 4.1 ASCII),
+// shared with the fuzz targets' fixtures.
+std::string barText() {
+  std::ifstream in(COSIM_FEM_SOURCE_DIR "/tests/fem/data/two_hex_bar.msh");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+const std::string kBar = barText();
 
 TEST(FemGmsh, ReadsPhysicalGroupsAndMatchesBoxMesh) {
   std::istringstream in(kBar);
