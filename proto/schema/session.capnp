@@ -7,9 +7,11 @@ using Cxx = import "/capnp/c++.capnp";
 $Cxx.namespace("cosim::proto");
 
 using Data = import "data.capnp";
+using Gmh = import "gmh.capnp";
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 2;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt
+const protocolMinor :UInt16 = 3;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt;
+                                  # 3: adoptCells, cellsAdopted
 
 struct Envelope {
   seq @0 :UInt64;          # sender's sequence number (requests and replies)
@@ -31,6 +33,8 @@ struct Envelope {
     error @15 :Error;
     shutdown @16 :Shutdown;
     shutdownDone @17 :Void;
+    adoptCells @18 :AdoptCells;  # coupler -> GMH worker (capability unit-cell-adoption)
+    cellsAdopted @19 :CellsAdopted;
   }
 }
 
@@ -111,6 +115,19 @@ struct Checkpoint { path @0 :Text; }
 struct CheckpointDone { path @0 :Text; bytes @1 :UInt64; }
 struct Restore { path @0 :Text; }
 struct Restored { time @0 :Float64; step @1 :UInt64; }
+
+# A GMH worker takes over unit cells of a worker the run lost: it loads them
+# from that worker's checkpoint, runs the jobs they were sent since, oldest
+# first, and keeps them from then on (they go into its own checkpoints).
+struct AdoptCells {
+  path @0 :Text;                   # the lost worker's checkpoint file holding the cells
+  cellIds @1 :List(UInt32);
+  jobs @2 :List(Gmh.UnitCellJobs); # one list per coarse step since that checkpoint, ids among cellIds
+}
+struct CellsAdopted {
+  outputs @0 :Data.CouplingData;   # UnitCellResults: the answers to the last jobs list, or the
+                                   # cells' states as loaded where no jobs came
+}
 
 struct Heartbeat {
   sentAtS @0 :Float64;       # sender's monotonic clock

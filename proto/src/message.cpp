@@ -167,6 +167,8 @@ std::string bodyName(proto::Envelope::Reader env) {
     case W::ERROR: return "error";
     case W::SHUTDOWN: return "shutdown";
     case W::SHUTDOWN_DONE: return "shutdownDone";
+    case W::ADOPT_CELLS: return "adoptCells";
+    case W::CELLS_ADOPTED: return "cellsAdopted";
   }
   return "unknown(" + std::to_string(static_cast<int>(env.getBody().which())) + ")";
 }

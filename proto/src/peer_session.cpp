@@ -19,7 +19,7 @@ std::string seconds(double s) {
 bool isReplyKind(Which w) {
   return w == Which::SETUP_DONE || w == Which::ADVANCED || w == Which::FIELDS ||
          w == Which::CHECKPOINT_DONE || w == Which::RESTORED || w == Which::SHUTDOWN_DONE ||
-         w == Which::ERROR;
+         w == Which::CELLS_ADOPTED || w == Which::ERROR;
 }
 
 /// The reply kind that answers a request kind (besides an error, which answers any).
@@ -31,6 +31,7 @@ Which answerTo(Which request) {
     case Which::CHECKPOINT: return Which::CHECKPOINT_DONE;
     case Which::RESTORE: return Which::RESTORED;
     case Which::SHUTDOWN: return Which::SHUTDOWN_DONE;
+    case Which::ADOPT_CELLS: return Which::CELLS_ADOPTED;
     default: return Which::ERROR;
   }
 }
@@ -75,12 +76,12 @@ std::string PeerSession::lastHeard(const std::string& peer) const {
   return it->second.lastHeardWhat + ", " + seconds(monotonicSeconds() - it->second.lastHeardAt) + " ago";
 }
 
-void PeerSession::fault(const std::string& peer, const std::string& what) const {
+void PeerSession::fault(const std::string& peer, const std::string& what, bool gone) const {
   std::string who = "peer '" + peer + "'";
   if (auto it = peers_.find(peer); it != peers_.end() && it->second.info.pid != 0)
     who += " (" + it->second.info.kind + ", pid " + std::to_string(it->second.info.pid) + " on " +
            it->second.info.host + ")";
-  throw PeerFault(peer, who + ", " + context_ + ": " + what + "; last heard: " + lastHeard(peer));
+  throw PeerFault(peer, who + ", " + context_ + ": " + what + "; last heard: " + lastHeard(peer), gone);
 }
 
 void PeerSession::onHello(const std::string& name, InMessage&& message) {
@@ -144,6 +145,7 @@ void PeerSession::take(Received&& r) {
     return;
   }
   Peer& p = it->second;
+  if (p.dropped) return;  // the run went on without it: nothing it says matters now
   p.traffic.messagesReceived++;
   p.traffic.bytesReceived += r.bytes;
   p.lastHeardAt = monotonicSeconds();
@@ -201,10 +203,10 @@ void PeerSession::checkLiveness() {
     if (!p.welcomed) continue;
     if (now - p.lastHeardAt > options_.heartbeatTimeoutS)
       fault(name, "silent for " + seconds(now - p.lastHeardAt) + " (heartbeat timeout " +
-                      seconds(options_.heartbeatTimeoutS) + ")");
+                      seconds(options_.heartbeatTimeoutS) + ")", true);
     for (const auto& [seq, deadline] : p.deadlines)
       if (now > deadline)
-        fault(name, "no reply to '" + p.kinds.at(seq) + "' (seq " + std::to_string(seq) + ") within its deadline");
+        fault(name, "no reply to '" + p.kinds.at(seq) + "' (seq " + std::to_string(seq) + ") within its deadline", true);
   }
 }
 
@@ -258,7 +260,7 @@ std::uint64_t PeerSession::request(const std::string& peer, OutMessage& message,
   env.setSeq(seq);
   env.setReplyTo(0);
   const std::string kind = bodyName(env.asReader());
-  if (!socket_.send(peer, message)) fault(peer, "cannot send '" + kind + "': not connected");
+  if (!socket_.send(peer, message)) fault(peer, "cannot send '" + kind + "': not connected", true);
   p.traffic.messagesSent++;
   p.traffic.bytesSent += message.sizeInBytes();
   p.deadlines[seq] = monotonicSeconds() + (timeoutS > 0 ? timeoutS : options_.requestTimeoutS);
@@ -273,33 +275,46 @@ Reply PeerSession::awaitReply(const std::string& peer, std::uint64_t seq) {
 
 std::vector<Reply> PeerSession::awaitReplies(
     const std::vector<std::pair<std::string, std::uint64_t>>& pending) {
-  std::vector<std::optional<Reply>> got(pending.size());
-  std::size_t remaining = pending.size();
+  // The replies are taken only once all are in: a fault of one peer while
+  // waiting leaves the others' replies with the session, where a caller that
+  // carries on without that peer (dropPeer) still finds them.
   while (true) {
-    for (std::size_t i = 0; i < pending.size(); ++i) {
-      if (got[i]) continue;
-      Peer& p = peerRef(pending[i].first);
-      auto it = p.replies.find(pending[i].second);
-      if (it == p.replies.end()) continue;
-      auto env = it->second.message.envelope();
-      if (env.getBody().which() == Which::ERROR) {
-        const auto e = env.getBody().getError();
-        const std::string kind = p.kinds[pending[i].second];
-        fault(pending[i].first, "answered '" + kind + "' (seq " + std::to_string(pending[i].second) +
-                                    ") with an error: " + e.getMessage().cStr());
+    bool all = true;
+    for (const auto& [peer, seq] : pending) {
+      Peer& p = peerRef(peer);
+      auto it = p.replies.find(seq);
+      if (it == p.replies.end()) {
+        all = false;
+        continue;
       }
-      got[i].emplace(std::move(it->second));
-      p.replies.erase(it);
-      p.kinds.erase(pending[i].second);
-      --remaining;
+      auto env = it->second.message.envelope();
+      if (env.getBody().which() == Which::ERROR)
+        fault(peer, "answered '" + p.kinds[seq] + "' (seq " + std::to_string(seq) +
+                        ") with an error: " + env.getBody().getError().getMessage().cStr());
     }
-    if (remaining == 0) break;
+    if (all) break;
     pump(std::chrono::milliseconds(100));
   }
   std::vector<Reply> out;
-  out.reserve(got.size());
-  for (auto& g : got) out.push_back(std::move(*g));
+  out.reserve(pending.size());
+  for (const auto& [peer, seq] : pending) {
+    Peer& p = peerRef(peer);
+    auto it = p.replies.find(seq);
+    out.push_back(std::move(it->second));
+    p.replies.erase(it);
+    p.kinds.erase(seq);
+  }
   return out;
+}
+
+void PeerSession::dropPeer(const std::string& peer) {
+  Peer& p = peerRef(peer);
+  p.dropped = true;
+  p.welcomed = false;  // no heartbeats, no liveness check, no shutdown; late messages are dropped
+  p.deadlines.clear();
+  p.kinds.clear();
+  p.answers.clear();
+  p.replies.clear();
 }
 
 void PeerSession::shutdownAll(const std::string& reason, double timeoutS, const std::set<std::string>& skip) {

@@ -252,6 +252,12 @@ struct SolverHost::Impl {
         done.setStep(solver.step());
         return data.send(m);
       }
+      case Which::ADOPT_CELLS: {
+        requireSetup(env);
+        auto m = reply(seq, solver.outputWordsHint());
+        solver.adoptCells(body.getAdoptCells(), m.envelope().getBody().initCellsAdopted().initOutputs());
+        return data.send(m);
+      }
       case Which::SHUTDOWN: {
         auto m = reply(seq);
         m.envelope().getBody().setShutdownDone();
@@ -261,7 +267,7 @@ struct SolverHost::Impl {
       }
       case Which::HELLO: case Which::WELCOME: case Which::SETUP_DONE: case Which::ADVANCED:
       case Which::FIELDS: case Which::CHECKPOINT_DONE: case Which::RESTORED: case Which::ERROR:
-      case Which::SHUTDOWN_DONE: case Which::HEARTBEAT:
+      case Which::SHUTDOWN_DONE: case Which::HEARTBEAT: case Which::CELLS_ADOPTED:
         throw SolverError(proto::Error::Code::UNEXPECTED,
                           "a solver does not accept '" + bodyName(env) + "' messages");
     }

@@ -3,7 +3,9 @@
 // coarse step; two dem_solver workers each hold one prepared 100-sphere cell
 // (dem_prepare_cell, 416 kPa); the gmh coupling splits the jobs by owner and
 // gathers the stresses. Compressing the block raises the cells' pressure; a
-// worker killed mid-run stops the run with a message naming its cells.
+// worker killed mid-run stops the run with a message naming its cells, or,
+// with on_worker_loss: move, hands them to the other worker and the run's
+// results stay those of an undisturbed run.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -119,6 +121,20 @@ output: {dir: )" << (dir_ / "run").string() << "}\n";
     return run({binary("coupler"), "run", (dir_ / "gmh.yaml").string(), "--resume", "--out", (dir_ / "cut").string(),
                 "--no-progress"},
                120.0);
+  }
+
+  /// This run's worker cells_b, once it runs (-1 after `tries` x 50 ms). Its
+  /// own: its endpoint lies in this test's directory, and other GmhRun tests
+  /// beside it under ctest -j have a cells_b too (killing theirs left this
+  /// run going for its million steps until the wait gave up).
+  pid_t waitForWorkerB(int tries = 200) const {
+    for (int i = 0; i < tries; ++i) {
+      const auto ours = processesMentioning(dir_.string());
+      for (pid_t p : processesMentioning("--name cells_b"))
+        if (std::find(ours.begin(), ours.end(), p) != ours.end()) return p;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return -1;
   }
 
   static inline fs::path cellDir_;
@@ -441,23 +457,102 @@ TEST_F(GmhRun, OverlappingWorkersAreRefused) {
 
 TEST_F(GmhRun, ALostWorkerStopsTheRunNamingItsCells) {
   Subprocess coupler({binary("coupler"), "run", scene(1000000), "--no-progress"});
-  // Wait until the pool is running, then kill one worker: this run's own
-  // (its endpoint lies in this test's directory). Other GmhRun tests run
-  // beside it under ctest -j and have a cells_b too; killing theirs left this
-  // run going for its million steps until the 60 s wait gave up.
-  pid_t victim = -1;
-  for (int i = 0; i < 200 && victim < 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    const auto ours = processesMentioning(dir_.string());
-    for (pid_t p : processesMentioning("--name cells_b"))
-      if (std::find(ours.begin(), ours.end(), p) != ours.end()) victim = p;
-  }
+  const pid_t victim = waitForWorkerB();
   ASSERT_GT(victim, 0) << "worker cells_b never started";
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   ::kill(victim, SIGKILL);
   const int code = coupler.wait(60.0);
   EXPECT_EQ(code, 4) << coupler.err();
   EXPECT_NE(coupler.err().find("worker 'cells_b' held unit cells 1"), std::string::npos) << coupler.err();
+}
+
+/// The pool's and FEM's series of two runs, compared to the bit (the lost
+/// worker's own series end where it was lost).
+void expectSamePoolSeries(const fs::path& a, const fs::path& b) {
+  auto x = io::H5File::openReadOnly(a / "coupler.h5");
+  auto y = io::H5File::openReadOnly(b / "coupler.h5");
+  for (const std::string series : {"time", "exchange", "block/energy/kinetic", "block/energy/strain",
+                                   "block/energy/external_work", "cells/jobs", "cells/mean_pressure",
+                                   "cells/cell_ids", "cells/cell_stress", "cells/cell_porosity",
+                                   "cells/cell_coordination", "cells/max_relaxation_steps"}) {
+    const auto u = x.readArray("/series/" + series), v = y.readArray("/series/" + series);
+    ASSERT_EQ(u.size(), v.size()) << series;
+    EXPECT_EQ(0, std::memcmp(u.data(), v.data(), u.size() * sizeof(double))) << series;
+  }
+}
+
+nlohmann::json reportOf(const fs::path& runDir) {
+  std::ifstream in(runDir / "run_report.json");
+  return nlohmann::json::parse(in);
+}
+
+TEST_F(GmhRun, ALostWorkersCellsMoveToTheOtherAndTheResultsStayTheSame) {
+  // Four cells on two workers, a checkpoint every 10 exchanges; cells_b is
+  // SIGKILLed once the run is past its first checkpoint. Its two cells move
+  // to cells_a from the latest checkpoint with their jobs since replayed,
+  // and the run goes on to its end as if nothing had happened.
+  const std::string path = scene(300, "2", ", on_worker_loss: move", 4);
+  std::string text;
+  {
+    std::ifstream in(path);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto withOutput = [&](const std::string& dir) {
+    std::string t = text;
+    const std::string out = "output: {dir: " + (dir_ / "run").string() + "}";
+    t.replace(t.find(out), out.size(), "output: {dir: " + (dir_ / dir).string() + ", checkpoint_interval: 10}");
+    const auto file = dir_ / (dir + ".yaml");
+    std::ofstream(file) << t;
+    return file.string();
+  };
+  const auto whole = run({binary("coupler"), "run", withOutput("whole"), "--no-progress"}, 120.0);
+  ASSERT_EQ(whole.code, 0) << whole.out << whole.err;
+
+  Subprocess coupler({binary("coupler"), "run", withOutput("moved"), "--no-progress"});
+  // Past the first checkpoint (only the latest two are kept: any one will do).
+  const auto checkpointed = [&] {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir_ / "moved" / "checkpoints", ec))
+      if (e.path().filename().string().rfind("exchange-", 0) == 0) return true;
+    return false;
+  };
+  for (int i = 0; i < 1200 && !checkpointed(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  const pid_t victim = waitForWorkerB(1);
+  ASSERT_GT(victim, 0) << "worker cells_b never started, or the run ended before its first checkpoint";
+  ::kill(victim, SIGKILL);
+  ASSERT_EQ(coupler.wait(120.0), 0) << coupler.err();
+  EXPECT_NE(coupler.err().find("worker 'cells_b' lost"), std::string::npos) << coupler.err();
+  EXPECT_NE(coupler.err().find("its 2 unit cells moved from the checkpoint of exchange"), std::string::npos)
+      << coupler.err();
+  expectSamePoolSeries(dir_ / "whole", dir_ / "moved");
+  const auto moved = reportOf(dir_ / "moved"), reference = reportOf(dir_ / "whole");
+  EXPECT_EQ(moved["figures"]["answered_cell_jobs"], reference["figures"]["answered_cell_jobs"]);
+  EXPECT_EQ(moved["figures"]["moved_unit_cells"].get<double>(), 2.0);
+  EXPECT_EQ(moved["figures"]["lost_workers"].get<double>(), 1.0);
+  EXPECT_EQ(reference["figures"]["lost_workers"].get<double>(), 0.0);
+
+  // Resumed from its last checkpoint, taken after the move: cells_b is not
+  // started again, cells_a restores all four cells, and the results are still
+  // the undisturbed run's.
+  fs::path latest;
+  for (const auto& e : fs::directory_iterator(dir_ / "moved" / "checkpoints"))
+    if (e.path().filename().string().rfind("exchange-", 0) == 0 && (latest.empty() || e.path() > latest)) latest = e.path();
+  ASSERT_TRUE(fs::exists(latest / "lost_solvers.txt")) << latest;
+  const auto resumed = run({binary("coupler"), "run", withOutput("moved"), "--resume", "--no-progress"}, 120.0);
+  ASSERT_EQ(resumed.code, 0) << resumed.out << resumed.err;
+  EXPECT_EQ(resumed.err.find("cells_b"), std::string::npos) << resumed.err;
+  expectSamePoolSeries(dir_ / "whole", dir_ / "moved");
+}
+
+TEST_F(GmhRun, ALostWorkerBeforeTheFirstCheckpointStopsTheRunSayingWhy) {
+  Subprocess coupler({binary("coupler"), "run", scene(1000000, "1", ", on_worker_loss: move"), "--no-progress"});
+  const pid_t victim = waitForWorkerB();
+  ASSERT_GT(victim, 0) << "worker cells_b never started";
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ::kill(victim, SIGKILL);
+  EXPECT_EQ(coupler.wait(60.0), 4) << coupler.err();
+  EXPECT_NE(coupler.err().find("no checkpoint has been taken yet (output.checkpoint_interval)"), std::string::npos)
+      << coupler.err();
 }
 
 }  // namespace

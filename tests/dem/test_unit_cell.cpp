@@ -462,5 +462,90 @@ TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
               got.getRelaxationSteps()[0], sg[10], got.getRelaxationSteps()[1]);
 }
 
+/// An AdoptCells request: cells from `path`, with one jobs list per entry of `jobs`.
+struct Adoption {
+  capnp::MallocMessageBuilder msg, out;
+  proto::CouplingData::Reader adopt(DemSolver& s, const std::string& path, const std::vector<std::uint32_t>& ids,
+                                    const std::vector<std::pair<std::vector<std::uint32_t>, std::vector<double>>>& jobs) {
+    auto r = msg.initRoot<proto::AdoptCells>();
+    r.setPath(path);
+    auto i = wire::view(r.initCellIds(static_cast<unsigned>(ids.size())));
+    std::copy(ids.begin(), ids.end(), i.begin());
+    auto lists = r.initJobs(static_cast<unsigned>(jobs.size()));
+    for (unsigned k = 0; k < jobs.size(); ++k) {
+      lists[k].setDt(1e-6);
+      auto c = wire::view(lists[k].initCellIds(static_cast<unsigned>(jobs[k].first.size())));
+      auto e = wire::view(lists[k].initStrainIncrements(static_cast<unsigned>(jobs[k].second.size())));
+      std::copy(jobs[k].first.begin(), jobs[k].first.end(), c.begin());
+      std::copy(jobs[k].second.begin(), jobs[k].second.end(), e.begin());
+    }
+    auto outputs = out.initRoot<proto::CouplingData>();
+    s.adoptCells(r.asReader(), outputs);
+    return outputs.asReader();
+  }
+};
+
+TEST_F(DemUnitCell, AdoptedCellsAnswerAsTheirLostWorkerWould) {
+  // Worker a holds cells 0 and 1 and checkpoints; two more jobs follow. Worker
+  // b (cells 2 and 3, the same settings) adopts cell 1 from a's checkpoint
+  // with those two jobs: its answer to the second is a's, to the bit, and
+  // from then on b answers cell 1 as a does.
+  const std::string cell = (dir_ / "cell.ckpt").string();
+  DemSolver a, b;
+  setupWorker(a, workerScene(cell, ", max_steps: 50000"));
+  setupWorker(b, workerScene(cell, ", first_id: 2, max_steps: 50000"));
+  const std::string ckpt = (dir_ / "a.ckpt").string();
+  ASSERT_GT(a.checkpoint(ckpt), 0u);
+  const std::vector<double> first = isotropic(-5e-5), second{0, 2e-4, 0, 2e-4, 0, 0, 0, 0, 0}, third = isotropic(3e-5);
+  Exchange x1, x2, x3, y3;
+  x1.run(a, {1}, first);
+  const auto expected = x2.run(a, {1}, second);
+  Adoption adoption;
+  const auto got = adoption.adopt(b, ckpt, {1}, {{{1}, first}, {{1}, second}}).getUnitCellResults()[0];
+  ASSERT_EQ(got.getCellIds().size(), 1u);
+  EXPECT_EQ(got.getCellIds()[0], 1u);
+  const auto se = wire::view(expected.getStresses()), sg = wire::view(got.getStresses());
+  for (std::size_t k = 0; k < 9; ++k) EXPECT_EQ(se[k], sg[k]) << k;
+  EXPECT_EQ(expected.getRelaxationSteps()[0], got.getRelaxationSteps()[0]);
+  EXPECT_EQ(expected.getPorosities()[0], got.getPorosities()[0]);
+  ASSERT_EQ(b.unitCells()->size(), 3u);
+  const auto next = x3.run(a, {1}, third), nextOnB = y3.run(b, {1}, third);
+  for (std::size_t k = 0; k < 9; ++k) EXPECT_EQ(next.getStresses()[static_cast<unsigned>(k)], nextOnB.getStresses()[static_cast<unsigned>(k)]);
+  // b's checkpoint holds the adopted cell: a worker restored from it answers it too.
+  const std::string bckpt = (dir_ / "b.ckpt").string();
+  ASSERT_GT(b.checkpoint(bckpt), 0u);
+  DemSolver c;
+  c.restore(bckpt);
+  EXPECT_EQ(c.unitCells()->size(), 3u);
+}
+
+TEST_F(DemUnitCell, AdoptionIsRefusedNamingWhatIsWrong) {
+  const std::string cell = (dir_ / "cell.ckpt").string();
+  DemSolver a, b, other;
+  setupWorker(a, workerScene(cell, ""));
+  setupWorker(b, workerScene(cell, ", first_id: 2"));
+  setupWorker(other, workerScene(cell, ", first_id: 4, tolerance: 0.02"));
+  const std::string ckpt = (dir_ / "a.ckpt").string();
+  ASSERT_GT(a.checkpoint(ckpt), 0u);
+  const auto refused = [&](DemSolver& s, const std::string& path, const std::vector<std::uint32_t>& ids,
+                           const std::vector<std::pair<std::vector<std::uint32_t>, std::vector<double>>>& jobs,
+                           const std::string& expected) {
+    Adoption x;
+    try {
+      x.adopt(s, path, ids, jobs);
+      ADD_FAILURE() << "accepted: " << expected;
+    } catch (const wire::SolverError& e) {
+      EXPECT_EQ(e.code(), proto::Error::Code::BAD_INPUT);
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  refused(other, ckpt, {0}, {}, "other unit_cells settings");
+  refused(b, ckpt, {2}, {}, "holds unit cell 2 already");
+  refused(b, ckpt, {5}, {}, "the checkpoint holds no unit cell 5");
+  refused(b, ckpt, {0}, {{{1}, isotropic(0.0)}}, "a replayed job names unit cell 1");
+  refused(b, (dir_ / "missing.ckpt").string(), {0}, {}, "missing.ckpt");
+  EXPECT_EQ(b.unitCells()->size(), 2u);  // nothing half adopted
+}
+
 }  // namespace
 }  // namespace cosim::dem

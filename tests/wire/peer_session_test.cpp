@@ -2,12 +2,15 @@
 // socket: every way a registered peer can break the request/reply contract
 // (malformed, duplicate, misaddressed or wrongly kinded replies, a second
 // hello mid-run) ends in a PeerFault that names the peer, and a hello from an
-// instance the run does not have is refused with the names it expects.
+// instance the run does not have is refused with the names it expects. A peer
+// that falls silent faults as gone; the run can drop it and still take the
+// replies the other peers sent meanwhile.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <functional>
 #include <string>
+#include <thread>
 
 #include "cosim/wire/peer_session.hpp"
 #include "cosim/wire/sockets.hpp"
@@ -177,6 +180,64 @@ TEST_F(PeerSessionContract, AnErrorAnswerFaultsWithTheSolversMessage) {
                       ") with an error: contact overlap above 20 % of the radius"),
             std::string::npos)
       << what;
+}
+
+TEST_F(PeerSessionContract, ADroppedPeerLeavesTheOthersRepliesToBeTaken) {
+  // beam answers its advance; cells falls silent past the heartbeat timeout.
+  // The fault names cells as gone, beam's reply stays with the session, and
+  // once cells is dropped nothing it sends later matters.
+  LinkOptions link{0.05, 0.5, 5.0};
+  PeerSession session(router_, link);
+  ScriptedSolver cells(endpoint_, "cells");
+  solver_.hello(101);
+  cells.hello(102);
+  session.awaitHellos({"beam", "cells"}, 5.0);
+  session.welcome("beam");
+  session.welcome("cells");
+  EXPECT_EQ(solver_.next().envelope().getBody().which(), Which::WELCOME);
+  EXPECT_EQ(cells.next().envelope().getBody().which(), Which::WELCOME);
+  OutMessage a, b;
+  a.envelope().getBody().initAdvance().setSteps(1);
+  b.envelope().getBody().initAdvance().setSteps(1);
+  const auto seqBeam = session.request("beam", a), seqCells = session.request("cells", b);
+  EXPECT_EQ(solver_.next().envelope().getSeq(), seqBeam);
+  solver_.reply(seqBeam, advanced);
+  // beam keeps beating; cells says nothing more.
+  std::atomic<bool> stop{false};
+  std::thread beats([&] {
+    while (!stop) {
+      OutMessage h;
+      h.envelope().getBody().initHeartbeat();
+      solver_.socket().send(h);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  try {
+    session.awaitReplies({{"beam", seqBeam}, {"cells", seqCells}});
+    ADD_FAILURE() << "a silent peer was waited for without end";
+  } catch (const PeerFault& e) {
+    EXPECT_EQ(e.peer(), "cells");
+    EXPECT_TRUE(e.gone()) << e.what();
+  }
+  session.dropPeer("cells");
+  cells.reply(seqCells, advanced);  // too late: dropped
+  const auto replies = session.awaitReplies({{"beam", seqBeam}});
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].message.envelope().getReplyTo(), seqBeam);
+  session.pump(std::chrono::milliseconds(600));  // no liveness fault for the dropped peer
+  stop = true;
+  beats.join();
+}
+
+TEST_F(PeerSessionContract, AnErrorAnswerIsNotAPeerGone) {
+  const auto seq = welcomedWithAnAdvancePending();
+  solver_.reply(seq, [](proto::Envelope::Body::Builder b) { b.initError().setMessage("bad input"); });
+  try {
+    session_.awaitReply("beam", seq);
+    ADD_FAILURE() << "the error was taken as a reply";
+  } catch (const PeerFault& e) {
+    EXPECT_FALSE(e.gone()) << e.what();  // the run must stop: its work cannot simply move
+  }
 }
 
 }  // namespace

@@ -2,9 +2,12 @@
 // (external material, explicit) sends one unit-cell job per quadrature point
 // each coarse step: the corotational strain increment (Eq. 60; or the whole
 // increment, spin included, where FEM's material says frame: spatial). A pool of
-// dem_solver workers holds the cells, each cell on one worker for the whole
-// run (sticky: a cell's state lives where it was loaded; the workers announce
-// their cells in their setup replies). The coupling splits the jobs by owner,
+// dem_solver workers holds the cells, each cell on one worker (sticky: a
+// cell's state lives where it was loaded; the workers announce their cells in
+// their setup replies), unless that worker is lost and `on_worker_loss: move`
+// hands its cells to the others: each adopter loads them from the latest
+// checkpoint and replays the jobs sent since (handOver), so every cell's
+// history, and so every answer, is the undisturbed run's. The coupling splits the jobs by owner,
 // the workers run them at the same time, and it gathers their Cauchy
 // stresses (Eq. 44b, in the cells' frame) with porosity, coordination number, unbalanced-
 // force index (Eq. 57) and relaxation steps into one result list for FEM.
@@ -71,6 +74,7 @@ class GmhCoupling final : public Coupling {
       workers_.push_back(w);
     }
     if (workers_.empty()) m.error("workers", given ? "is empty" : "missing: the dem_solver workers that hold the unit cells");
+    moveOnLoss_ = m.choice("on_worker_loss", {"stop", "move"}, "stop") == "move";
     if (m.has("nonlocal")) readNonlocal(m);
   }
 
@@ -114,12 +118,14 @@ class GmhCoupling final : public Coupling {
   }
   std::vector<std::string> requiredCapabilities(const std::string& solver) const override {
     if (solver == fem_) return {"advance"};
+    if (moveOnLoss_) return {"unit-cells", "unit-cell-adoption"};
     return {"unit-cells"};
   }
   void describe(std::ostream& out) const override {
     out << fem_ << " unit-cell jobs -> " << workers_.size() << " worker(s):";
     for (const auto& w : workers_) out << " " << w;
-    out << " (each cell stays on the worker that loaded it)";
+    out << (moveOnLoss_ ? " (a lost worker's cells move to the others through the latest checkpoint)"
+                        : " (each cell stays on the worker that loaded it; a lost worker stops the run)");
     if (inelastic_)
       out << "; nonlocal inelastic stress, bell kernel, R = " << radius_ << " m, over-nonlocal factor "
           << inelastic_->overNonlocal() << " (the cells get their own increments)";
@@ -135,7 +141,51 @@ class GmhCoupling final : public Coupling {
     std::string list;
     for (std::size_t k = 0; k < ids.size() && k < 20; ++k) list += (k ? ", " : "") + std::to_string(ids[k]);
     if (ids.size() > 20) list += ", ... (" + std::to_string(ids.size()) + " cells)";
-    return "worker '" + solver + "' held unit cells " + list + "; restart from a checkpoint to move them";
+    return "worker '" + solver + "' held unit cells " + list + "; restart from a checkpoint to move them" +
+           (moveOnLoss_ ? "" : " (or set on_worker_loss: move to move them within the run)");
+  }
+
+  bool canHandOver(const std::string& lost) const override {
+    return moveOnLoss_ && std::find(workers_.begin(), workers_.end(), lost) != workers_.end() && !retired_.count(lost);
+  }
+
+  /// The lost worker's cells go to the survivors with the fewest cells, one
+  /// by one in id order (so the pool stays balanced and the choice is the same
+  /// on every run). Each adopter loads them from the file that held them at
+  /// the latest checkpoint and runs the jobs sent to them since.
+  std::vector<CellAdoption> handOver(const std::string& lost, std::uint64_t exchange) override {
+    const std::string who = "coupling '" + name() + "': cannot move the unit cells of worker '" + lost + "'";
+    if (!checkpointExchange_)
+      throw std::runtime_error(who + ": no checkpoint has been taken yet, and the cells move from the latest one "
+                                     "(output.checkpoint_interval)");
+    std::vector<std::string> survivors;
+    for (const auto& w : workers_)
+      if (w != lost && !retired_.count(w)) survivors.push_back(w);
+    if (survivors.empty()) throw std::runtime_error(who + ": no other worker is left");
+    std::vector<std::uint32_t> cells = cellsOf_[lost];
+    std::sort(cells.begin(), cells.end());
+    std::map<std::pair<std::string, std::string>, std::vector<std::uint32_t>> groups;  // (adopter, source) -> ids
+    for (std::uint32_t id : cells) {
+      const auto adopter = *std::min_element(survivors.begin(), survivors.end(), [&](const auto& a, const auto& b) {
+        return cellsOf_[a].size() < cellsOf_[b].size();
+      });
+      const auto source = holderAtCheckpoint_.find(id);
+      if (source == holderAtCheckpoint_.end())
+        throw std::runtime_error(who + ": unit cell " + std::to_string(id) + " was held by no worker at the checkpoint");
+      groups[{adopter, source->second}].push_back(id);
+      owner_[id] = adopter;
+      cellsOf_[adopter].push_back(id);
+    }
+    cellsOf_[lost].clear();
+    retired_.insert(lost);
+    movedCells_ += cells.size();
+    return adoptions(groups, exchange);
+  }
+
+  void checkpointTaken(std::uint64_t exchange) override {
+    checkpointExchange_ = exchange;
+    holderAtCheckpoint_ = owner_;
+    std::erase_if(sent_, [&](const SentJobs& s) { return s.exchange <= exchange; });
   }
 
   void exchange(ExchangeContext& ctx) override {
@@ -197,7 +247,46 @@ class GmhCoupling final : public Coupling {
     }
     for (auto& [w, jobs] : jobs_)
       if (!jobs.ids.empty()) ctx.inputs[w].stageUnitCellJobs({jobs.ids, jobs.increments, dt_});
+    if (moveOnLoss_ && !ids_.empty()) remember(ctx.exchange + 1, inc);
     if (ctx.series) ctx.series->append(name() + "/jobs", static_cast<double>(ids_.size()));
+  }
+
+  /// The jobs sent in `exchange`, kept until a checkpoint covers them: what a
+  /// hand-over replays. Before the first checkpoint only the latest are kept
+  /// (a loss then stops the run), so memory stays bounded.
+  void remember(std::uint64_t exchange, const std::vector<double>& increments) {
+    if (!checkpointExchange_) sent_.clear();
+    std::erase_if(sent_, [&](const SentJobs& s) { return s.exchange == exchange; });  // a resumed run's replay
+    sent_.push_back({exchange, dt_, ids_, increments});
+  }
+
+  /// Each group's jobs from the record, up to the exchange whose requests are out.
+  std::vector<CellAdoption> adoptions(const std::map<std::pair<std::string, std::string>, std::vector<std::uint32_t>>& groups,
+                                      std::uint64_t exchange) {
+    replay_.assign(groups.size(), {});
+    std::vector<CellAdoption> out;
+    std::size_t g = 0;
+    for (const auto& [key, ids] : groups) {
+      const std::set<std::uint32_t> members(ids.begin(), ids.end());
+      CellAdoption a{key.first, key.second, ids, {}, false};
+      for (const auto& s : sent_) {
+        if (s.exchange > exchange) continue;
+        WorkerJobs jobs;
+        for (std::size_t k = 0; k < s.ids.size(); ++k) {
+          if (!members.count(s.ids[k])) continue;
+          jobs.ids.push_back(s.ids[k]);
+          jobs.increments.insert(jobs.increments.end(), s.increments.begin() + 9 * static_cast<std::ptrdiff_t>(k),
+                                 s.increments.begin() + 9 * static_cast<std::ptrdiff_t>(k + 1));
+        }
+        if (jobs.ids.empty()) continue;
+        a.answersNow = s.exchange == exchange;
+        replay_[g].push_back({std::move(jobs), s.dt});
+      }
+      for (const auto& [jobs, dt] : replay_[g]) a.jobs.push_back({jobs.ids, jobs.increments, dt});
+      out.push_back(std::move(a));
+      ++g;
+    }
+    return out;
   }
 
   /// FEM's jobs of this step as flat arrays, in its order.
@@ -265,7 +354,7 @@ class GmhCoupling final : public Coupling {
 
   void gather(ExchangeContext& ctx) {
     for (const auto& w : workers_)
-      if (!ctx.isNew(w)) return;  // the pool answers together (all workers advance in one exchange)
+      if (!ctx.isNew(w) && !retired_.count(w)) return;  // the pool answers together (all workers advance in one exchange)
     gatherFrom(ctx);
     if (!ctx.replay) checkAnswers(ctx.exchange);
     noteFailures(ctx.exchange, ctx.replay);
@@ -333,22 +422,33 @@ class GmhCoupling final : public Coupling {
   /// would hand FEM two stresses for it, both without a sign in the results.
   /// (At setup, and for the replayed replies of a resume, no jobs are out.)
   void checkAnswers(std::uint64_t exchange) {
-    for (const auto& [w, jobs] : jobs_) {
-      if (jobs.ids.empty()) continue;
-      std::multiset<std::uint32_t> sent(jobs.ids.begin(), jobs.ids.end());
-      const auto& got = answeredBy_[w];
+    // Workers lost in this exchange are checked together: their adopters'
+    // answers stand in for all of them (a cell can move twice in one exchange).
+    const std::string lostWorkers = "the workers lost";
+    std::map<std::string, std::pair<std::multiset<std::uint32_t>, std::vector<std::uint32_t>>> buckets;
+    const auto bucket = [&](const std::string& w) -> auto& { return buckets[retired_.count(w) ? lostWorkers : w]; };
+    for (const auto& [w, jobs] : jobs_) bucket(w).first.insert(jobs.ids.begin(), jobs.ids.end());
+    for (const auto& [w, got] : answeredBy_) {
+      auto& b = bucket(w);
+      b.second.insert(b.second.end(), got.begin(), got.end());
+    }
+    for (auto& [w, b] : buckets) {
+      auto& [sent, got] = b;
+      if (sent.empty()) continue;
+      const std::size_t count = sent.size();
+      const std::string who = w == lostWorkers ? "the adopters of the workers lost in this exchange" : "worker '" + w + "'";
       for (std::uint32_t id : got) {
         auto it = sent.find(id);
         if (it == sent.end())
-          throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" + w +
-                                   "' answered unit cell " + std::to_string(id) +
+          throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": " + who +
+                                   " answered unit cell " + std::to_string(id) +
                                    (std::count(got.begin(), got.end(), id) > 1 ? " twice" : ", whose job it was not sent"));
         sent.erase(it);
       }
       if (!sent.empty())
-        throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": worker '" + w +
-                                 "' left " + std::to_string(sent.size()) + " of its " + std::to_string(jobs.ids.size()) +
-                                 " jobs unanswered (unit cell " + std::to_string(*sent.begin()) + " first)");
+        throw std::runtime_error("coupling '" + name() + "' at exchange " + std::to_string(exchange) + ": " + who +
+                                 " left " + std::to_string(sent.size()) + (w == lostWorkers ? " of their " : " of its ") +
+                                 std::to_string(count) + " jobs unanswered (unit cell " + std::to_string(*sent.begin()) + " first)");
       answeredJobs_ += got.size();
     }
   }
@@ -381,6 +481,10 @@ class GmhCoupling final : public Coupling {
     if (coarseCritical > 0.0) f["coarse_dt_over_critical"] = dt_ / coarseCritical;
     if (fine_[1] > 0.0 && coarseCritical > 0.0) f["time_step_ratio_alpha"] = coarseCritical / fine_[1];
     f["answered_cell_jobs"] = static_cast<double>(answeredJobs_);
+    if (moveOnLoss_) {
+      f["lost_workers"] = static_cast<double>(retired_.size());
+      f["moved_unit_cells"] = static_cast<double>(movedCells_);
+    }
     f["failed_cell_jobs"] = static_cast<double>(failedJobs_);
     f["failed_cells"] = static_cast<double>(failedCells_.size());
     if (failedJobs_ > 0)
@@ -407,6 +511,7 @@ class GmhCoupling final : public Coupling {
     if (inelastic_) inelastic_->save(out), out.pod(maxCorrection_);
     out.pod(fine_);  // the run's smallest fine critical step so far: Liu's time-step figures
     out.pod(answeredJobs_);
+    saveOwners(out);
   }
   void restore(util::BinaryReader& in) override {
     failedJobs_ = in.pod<std::uint64_t>("failed unit-cell jobs");
@@ -416,9 +521,35 @@ class GmhCoupling final : public Coupling {
     if (inelastic_) inelastic_->restore(in), maxCorrection_ = in.pod<double>("largest inelastic correction");
     fine_ = in.pod<decltype(fine_)>("fine time step figures");
     answeredJobs_ = in.pod<std::uint64_t>("answered unit-cell jobs");
+    restoreOwners(in);
   }
 
  private:
+  /// Which worker holds each cell and which workers the run lost (moved
+  /// cells live on their adopters' checkpoints, not where they were loaded).
+  void saveOwners(util::BinaryWriter& out) const {
+    std::vector<std::uint32_t> ids, holders, retired;
+    const auto indexOf = [&](const std::string& w) {
+      return static_cast<std::uint32_t>(std::find(workers_.begin(), workers_.end(), w) - workers_.begin());
+    };
+    for (const auto& [id, w] : owner_) ids.push_back(id), holders.push_back(indexOf(w));
+    for (const auto& w : retired_) retired.push_back(indexOf(w));
+    out.vec(ids), out.vec(holders), out.vec(retired);
+    out.pod(movedCells_);
+  }
+  void restoreOwners(util::BinaryReader& in) {
+    const auto ids = in.vec<std::uint32_t>("unit-cell ids"), holders = in.vec<std::uint32_t>("unit-cell workers");
+    const auto retired = in.vec<std::uint32_t>("lost workers");
+    if (ids.size() != holders.size()) in.fail("unit-cell workers", "not one per cell id");
+    const auto worker = [&](std::uint32_t k) -> const std::string& {
+      if (k >= workers_.size()) in.fail("unit-cell workers", "worker index " + std::to_string(k) + " out of range");
+      return workers_[k];
+    };
+    owner_.clear(), cellsOf_.clear(), retired_.clear();
+    for (std::size_t k = 0; k < ids.size(); ++k) owner_[ids[k]] = worker(holders[k]), cellsOf_[worker(holders[k])].push_back(ids[k]);
+    for (std::uint32_t k : retired) retired_.insert(worker(k));
+    movedCells_ = in.pod<std::uint64_t>("moved unit cells");
+  }
 
   void append(proto::UnitCellResults::Reader r, const std::string& worker, std::uint64_t exchange) {
     const auto ids = wire::view(r.getCellIds());
@@ -520,6 +651,20 @@ class GmhCoupling final : public Coupling {
   std::set<std::uint32_t> failing_, failedCells_;  // failing now; failed at least once
   std::uint64_t failedJobs_ = 0;
   std::uint64_t answeredJobs_ = 0;
+  // on_worker_loss: move
+  struct SentJobs {
+    std::uint64_t exchange = 0;  // the exchange whose requests carried them
+    double dt = 0.0;
+    std::vector<std::uint32_t> ids;
+    std::vector<double> increments;
+  };
+  bool moveOnLoss_ = false;
+  std::set<std::string> retired_;                          // workers the run lost (their cells moved)
+  std::vector<SentJobs> sent_;                             // the jobs since the latest checkpoint
+  std::optional<std::uint64_t> checkpointExchange_;        // the latest checkpoint's exchange
+  std::map<std::uint32_t, std::string> holderAtCheckpoint_;  // whose checkpoint file holds each cell
+  std::vector<std::vector<std::pair<WorkerJobs, double>>> replay_;  // the last hand-over's jobs (CellAdoption views)
+  std::uint64_t movedCells_ = 0;
 };
 
 const bool registered = CouplingRegistry::add(

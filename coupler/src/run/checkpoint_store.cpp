@@ -138,4 +138,23 @@ fs::path CheckpointStore::solverLastReply(const fs::path& dir, const std::string
 fs::path CheckpointStore::analysisState(const fs::path& dir) { return dir / "analysis.bin"; }
 fs::path CheckpointStore::couplingState(const fs::path& dir) { return dir / "couplings.bin"; }
 
+namespace {
+fs::path lostFile(const fs::path& dir) { return dir / "lost_solvers.txt"; }
+}  // namespace
+
+void CheckpointStore::saveLostSolvers(const fs::path& dir, const std::set<std::string>& lost) {
+  if (lost.empty()) return;
+  std::ofstream out(lostFile(dir));
+  for (const auto& name : lost) out << name << "\n";
+  if (!out) throw std::runtime_error(lostFile(dir).string() + ": cannot write the lost solvers");
+}
+
+std::set<std::string> CheckpointStore::lostSolvers(const fs::path& dir) {
+  std::set<std::string> lost;
+  std::ifstream in(lostFile(dir));
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) lost.insert(line);
+  return lost;
+}
+
 }  // namespace cosim::coupler

@@ -132,14 +132,17 @@ class CouplerRun final : public ExchangeDriver {
     checkInterrupt();
     ++exchange_;
     session_->setContext(context());
+    forgetLostReplies();
     std::vector<std::pair<std::string, std::uint64_t>> pending;
-    std::vector<double> sentAt;
+    std::map<std::string, double> sentAt;
+    std::set<std::string> owed;  // workers lost in this exchange whose answers their adopters gave
     // A row records every solver's latest reply. Where only some solvers
     // advance in this exchange (a sequential schedule's first half), the row
     // of the next exchange records their reply to this one: ask them now.
     const bool row = recordsThisExchange() ||
                      (plans.size() < solverNames().size() && recordsExchange(exchange_ + 1));
     for (const auto& [name, plan] : plans) {
+      if (lost_.count(name)) continue;
       auto& inputs = inputs_[name];
       wire::OutMessage m(inputs.words());
       {
@@ -156,18 +159,25 @@ class CouplerRun final : public ExchangeDriver {
       // The send is part of the round trip, not of the mapping: where the
       // processes share a CPU the solver may run its whole step inside it,
       // and that time is already counted between sentAt and the reply.
-      sentAt.push_back(monotonicSeconds());
-      pending.emplace_back(name, session_->request(name, m));
+      sentAt[name] = monotonicSeconds();
+      try {
+        pending.emplace_back(name, session_->request(name, m));
+      } catch (const wire::PeerFault& e) {
+        handOverOrRethrow(e, true, owed);
+      }
     }
-    auto replies = session_->awaitReplies(pending);
+    auto replies = awaitRepliesHandingOver(pending, plans, owed);
+    standInReplies(owed);
     time_ = newTime;
-    std::set<std::string> advanced;
+    std::set<std::string> advanced(owed.begin(), owed.end());
     std::vector<RoundTrip> round;
     for (std::size_t i = 0; i < replies.size(); ++i) {
-      round.push_back(takeAdvanced(pending[i].first, std::move(replies[i]), sentAt[i], plans.at(pending[i].first).dt));
-      advanced.insert(pending[i].first);
+      const auto& name = pending[i].first;
+      round.push_back(takeAdvanced(name, std::move(replies[i]), sentAt.at(name), plans.at(name).dt));
+      advanced.insert(name);
     }
     communication_.add(std::move(round));
+    lastAdvanced_ = advanced;
     runCouplings(advanced);
     record();
     completed_ = exchange_;
@@ -181,6 +191,136 @@ class CouplerRun final : public ExchangeDriver {
   void checkInterrupt() const {
     if (const int sig = stopSignal())
       throw Interrupted("stopped by signal " + std::to_string(sig) + " at exchange " + std::to_string(exchange_));
+  }
+
+  /// The replies of this exchange; a participant lost meanwhile whose work a
+  /// coupling can move (gmh, on_worker_loss: move) is handed over and the
+  /// others' replies are still taken, also when one is lost in the middle of
+  /// a hand-over (its cells, adopted ones included, move on again). Any other
+  /// fault stops the run.
+  std::vector<wire::Reply> awaitRepliesHandingOver(std::vector<std::pair<std::string, std::uint64_t>>& pending,
+                                                   const std::map<std::string, AdvancePlan>& plans,
+                                                   std::set<std::string>& owed) {
+    while (true) {
+      try {
+        takeAdoptions();
+        return session_->awaitReplies(pending);
+      } catch (const wire::PeerFault& e) {
+        handOverOrRethrow(e, plans.count(e.peer()) > 0, owed);
+        std::erase_if(pending, [&](const auto& p) { return p.first == e.peer(); });
+      }
+    }
+  }
+
+  /// The answers of the adoptions in flight: those to the jobs of this
+  /// exchange stand in for the lost workers' replies.
+  void takeAdoptions() {
+    if (adoptions_.empty()) return;
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto& a : adoptions_) pending.emplace_back(a.adopter, a.seq);
+    auto replies = session_->awaitReplies(pending);
+    for (std::size_t i = 0; i < replies.size(); ++i)
+      if (adoptions_[i].answersNow) adoptedAnswers_.push_back(std::move(replies[i]));
+    adoptions_.clear();
+  }
+
+  /// Called inside a handler of e. The lost worker's cells go to the others
+  /// from the latest checkpoint (AdoptCells, answered in takeAdoptions).
+  void handOverOrRethrow(const wire::PeerFault& e, bool owesReply, std::set<std::string>& owed) {
+    const std::string lost = e.peer();
+    Coupling* coupling = nullptr;
+    for (const auto& c : scene_.couplings)
+      if (c->canHandOver(lost)) coupling = c.get();
+    if (!e.gone() || !coupling) throw;
+    const auto point = checkpoints_.latest();
+    std::vector<CellAdoption> adoptions;
+    try {
+      if (!point) throw std::runtime_error("its work cannot move: no checkpoint has been taken yet (output.checkpoint_interval)");
+      adoptions = coupling->handOver(lost, exchange_);
+    } catch (const std::runtime_error& why) {
+      throw wire::PeerFault(lost, std::string(e.what()) + "; " + why.what(), true);
+    }
+    processes_.kill(lost);  // a hung one; a dead one is reaped already
+    session_->dropPeer(lost);
+    lost_.insert(lost);
+    // What it was adopting moves on with its own cells (the coupling counts them as its).
+    std::erase_if(adoptions_, [&](const InFlightAdoption& a) { return a.adopter == lost; });
+    std::size_t cells = 0;
+    std::string where;
+    for (const auto& a : adoptions) {
+      adoptions_.push_back({a.adopter, requestAdoption(a, point->dir), a.answersNow});
+      cells += a.ids.size();
+      where += (where.empty() ? "" : ", ") + std::to_string(a.ids.size()) + " to '" + a.adopter + "'";
+    }
+    // Its last reply stays until the next exchange starts: what this exchange's
+    // couplings, and a checkpoint right after it, still read.
+    if (owesReply) owed.insert(lost);
+    const std::string m = "worker '" + lost + "' lost " + context() + " (" + e.what() + "): its " +
+                          std::to_string(cells) + " unit cells moved from the checkpoint of exchange " +
+                          std::to_string(point->exchange) + " (" + where + "), their jobs since replayed";
+    log::warn(m);
+    report_.warnings.push_back(m);
+  }
+
+  std::uint64_t requestAdoption(const CellAdoption& a, const fs::path& checkpointDir) {
+    const auto put = [](auto list, const auto& values) { std::copy(values.begin(), values.end(), wire::view(list).begin()); };
+    wire::OutMessage m(256 + a.ids.size() + 12 * a.jobs.size() * a.ids.size());
+    auto adopt = m.envelope().getBody().initAdoptCells();
+    adopt.setPath(fs::absolute(CheckpointStore::solverCheckpoint(checkpointDir, a.source)).string());
+    put(adopt.initCellIds(static_cast<unsigned>(a.ids.size())), a.ids);
+    auto jobs = adopt.initJobs(static_cast<unsigned>(a.jobs.size()));
+    for (unsigned k = 0; k < a.jobs.size(); ++k) {
+      put(jobs[k].initCellIds(static_cast<unsigned>(a.jobs[k].cellIds.size())), a.jobs[k].cellIds);
+      put(jobs[k].initStrainIncrements(static_cast<unsigned>(a.jobs[k].strainIncrements.size())),
+          a.jobs[k].strainIncrements);
+      jobs[k].setDt(a.jobs[k].dt);
+    }
+    return session_->request(a.adopter, m);
+  }
+
+  /// The replies of the workers lost in this exchange, made of their
+  /// adopters' answers: all of them in the first one's (a cell may have
+  /// moved twice, so who answers for whom is the pool's business; the gmh
+  /// coupling checks the lost workers' jobs against these answers together).
+  void standInReplies(const std::set<std::string>& owed) {
+    bool first = true;
+    for (const auto& lost : owed) {
+      std::vector<proto::UnitCellResults::Reader> lists;
+      std::size_t bytes = 0;
+      for (const auto& r : adoptedAnswers_) {
+        if (!first) break;
+        for (auto l : r.message.envelope().getBody().getCellsAdopted().getOutputs().getUnitCellResults()) lists.push_back(l);
+        bytes += r.message.sizeInBytes();
+      }
+      first = false;
+      wire::OutMessage m(256 + bytes / sizeof(capnp::word));
+      auto advanced = m.envelope().getBody().initAdvanced();
+      advanced.setTime(time_);
+      auto out = advanced.initOutputs().initUnitCellResults(static_cast<unsigned>(lists.size()));
+      for (unsigned k = 0; k < lists.size(); ++k) out.setWithCaveats(k, lists[k]);
+      latest_.insert_or_assign(lost, wire::InMessage::decode(m.frames()));
+      energySource_.erase(lost);
+      keepViews(lost);
+    }
+    adoptedAnswers_.clear();
+  }
+
+  void forget(const std::string& solver) {
+    latest_.erase(solver), outputs_.erase(solver), energies_.erase(solver), energySource_.erase(solver);
+  }
+
+  /// A lost worker's stand-in reply served the exchange it was lost in (and a
+  /// checkpoint taken right after it); the couplings no longer see it.
+  void forgetLostReplies() {
+    for (const auto& name : lost_) forget(name);
+  }
+
+  /// The solvers this run has (all but the workers it lost and moved the work of).
+  std::vector<const SolverSpec*> activeSolvers() const {
+    std::vector<const SolverSpec*> active;
+    for (const auto& s : scene_.solvers)
+      if (!lost_.count(s.name)) active.push_back(&s);
+    return active;
   }
 
   void prepareOutput() {
@@ -208,13 +348,14 @@ class CouplerRun final : public ExchangeDriver {
     if (CheckpointStore::sceneText(*resumeFrom_) != scene_.text)
       throw Refused("cannot resume: " + scene_.file + " differs from the scene the run in " + runDir_.string() +
                     " was started with (saved in " + resumeFrom_->dir.string() + ")");
-    for (const auto& s : scene_.solvers)
-      for (const auto& file : {CheckpointStore::solverCheckpoint(resumeFrom_->dir, s.name),
-                               CheckpointStore::solverLastReply(resumeFrom_->dir, s.name)})
+    lost_ = CheckpointStore::lostSolvers(resumeFrom_->dir);
+    for (const auto* solver : activeSolvers())
+      for (const auto& file : {CheckpointStore::solverCheckpoint(resumeFrom_->dir, solver->name),
+                               CheckpointStore::solverLastReply(resumeFrom_->dir, solver->name)})
         if (!fs::is_regular_file(file))
-          throw Refused(resumeFrom_->dir.string() + ": the checkpoint lacks solver '" + s.name + "''s state (" +
+          throw Refused(resumeFrom_->dir.string() + ": the checkpoint lacks solver '" + solver->name + "''s state (" +
                             file.filename().string() + "); resume from an earlier one by removing this directory",
-                        s.name);
+                        solver->name);
     // A reference solution continues from what it had gathered up to the
     // checkpoint; without that state (no analysis state in the checkpoint) it
     // would see only the exchanges after the resume, so the resume is refused.
@@ -235,18 +376,36 @@ class CouplerRun final : public ExchangeDriver {
 
   void checkpoint() {
     const auto dir = checkpoints_.begin(exchange_);
-    std::vector<std::pair<std::string, std::uint64_t>> pending;
-    for (const auto& s : scene_.solvers) {
-      wire::OutMessage m;
-      m.envelope().getBody().initCheckpoint().setPath(fs::absolute(CheckpointStore::solverCheckpoint(dir, s.name)).string());
-      pending.emplace_back(s.name, session_->request(s.name, m));
+    auto pending = requestCheckpoints(dir);
+    const auto lostBefore = lost_.size();
+    std::set<std::string> owed;
+    awaitRepliesHandingOver(pending, {}, owed);
+    adoptedAnswers_.clear();  // the lost workers answered this exchange before they were lost
+    if (lost_.size() != lostBefore) {
+      // Moved from the previous checkpoint: the next requests go to the
+      // adopters (restaged as a resumed run restages them), whose files must
+      // now hold the adopted cells too.
+      runCouplings(lastAdvanced_, true);
+      session_->awaitReplies(requestCheckpoints(dir));
     }
-    session_->awaitReplies(pending);
+    CheckpointStore::saveLostSolvers(dir, lost_);
     for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
     if (scene_.reference) saveAnalysis(CheckpointStore::analysisState(dir));
     if (keepsCouplingState()) saveCouplings(CheckpointStore::couplingState(dir));
     series_->flush();
     checkpoints_.commit(exchange_, time_, scene_.text, series_->rowCounts());
+    for (const auto& c : scene_.couplings) c->checkpointTaken(exchange_);
+  }
+
+  std::vector<std::pair<std::string, std::uint64_t>> requestCheckpoints(const fs::path& dir) {
+    std::vector<std::pair<std::string, std::uint64_t>> pending;
+    for (const auto* solver : activeSolvers()) {
+      wire::OutMessage m;
+      m.envelope().getBody().initCheckpoint().setPath(
+          fs::absolute(CheckpointStore::solverCheckpoint(dir, solver->name)).string());
+      pending.emplace_back(solver->name, session_->request(solver->name, m));
+    }
+    return pending;
   }
 
   /// After setup: every solver restores its checkpoint; the couplings restage
@@ -254,10 +413,11 @@ class CouplerRun final : public ExchangeDriver {
   void restoreFromCheckpoint() {
     const auto& point = *resumeFrom_;
     std::vector<std::pair<std::string, std::uint64_t>> pending;
-    for (const auto& s : scene_.solvers) {
+    for (const auto* solver : activeSolvers()) {
       wire::OutMessage m;
-      m.envelope().getBody().initRestore().setPath(fs::absolute(CheckpointStore::solverCheckpoint(point.dir, s.name)).string());
-      pending.emplace_back(s.name, session_->request(s.name, m));
+      m.envelope().getBody().initRestore().setPath(
+          fs::absolute(CheckpointStore::solverCheckpoint(point.dir, solver->name)).string());
+      pending.emplace_back(solver->name, session_->request(solver->name, m));
     }
     auto replies = session_->awaitReplies(pending);
     for (std::size_t i = 0; i < replies.size(); ++i) {
@@ -267,6 +427,8 @@ class CouplerRun final : public ExchangeDriver {
                   std::to_string(point.time) + " s");
     }
     for (const auto& s : scene_.solvers) {
+      // A lost worker's stand-in reply, kept where the checkpoint followed the exchange it was lost in.
+      if (lost_.count(s.name) && !fs::exists(CheckpointStore::solverLastReply(point.dir, s.name))) continue;
       try {
         latest_.insert_or_assign(s.name, wire::InMessage::load(CheckpointStore::solverLastReply(point.dir, s.name).string()));
       } catch (const wire::MalformedMessage& e) {
@@ -278,6 +440,7 @@ class CouplerRun final : public ExchangeDriver {
     time_ = point.time;
     if (scene_.reference) restoreAnalysis(CheckpointStore::analysisState(point.dir));
     restoreCouplings(CheckpointStore::couplingState(point.dir));
+    for (const auto& c : scene_.couplings) c->checkpointTaken(point.exchange);
     runCouplings({names_.begin(), names_.end()}, true);
   }
 
@@ -388,7 +551,8 @@ class CouplerRun final : public ExchangeDriver {
     const auto connectTo = wire::connectableEndpoint(endpoint_);
     session_.emplace(*socket_, scene_.link);
     session_->setWatchdog([this] { watchdog(); });
-    for (const auto& s : scene_.solvers) {
+    for (const auto* solver : activeSolvers()) {
+      const auto& s = *solver;
       if (s.launch == SolverSpec::Launch::spawn) {
         processes_.spawn(s.name, s.binary, launchArgs(s, connectTo), environment);
       } else {
@@ -397,9 +561,11 @@ class CouplerRun final : public ExchangeDriver {
                   (curve ? " --server-key-file " + fs::absolute(serverKeyPath()).string() : std::string()) + ")");
       }
     }
-    session_->awaitHellos(names_, scene_.connectTimeoutS);
+    std::vector<std::string> expected;
+    for (const auto* solver : activeSolvers()) expected.push_back(solver->name);
+    session_->awaitHellos(expected, scene_.connectTimeoutS);
     checkHellos();
-    for (const auto& n : names_) session_->welcome(n);
+    for (const auto& n : expected) session_->welcome(n);
   }
 
   fs::path serverKeyPath() const { return runDir_ / "coupler.pub"; }
@@ -417,8 +583,10 @@ class CouplerRun final : public ExchangeDriver {
 
   void watchdog() {
     if (auto exit = processes_.reapOne())
-      throw wire::PeerFault(exit->name, "peer '" + exit->name + "' (pid " + std::to_string(exit->pid) + ") " + exit->how +
-                                            ", " + context() + "; last heard: " + session_->lastHeard(exit->name));
+      throw wire::PeerFault(exit->name,
+                            "peer '" + exit->name + "' (pid " + std::to_string(exit->pid) + ") " + exit->how + ", " +
+                                context() + "; last heard: " + session_->lastHeard(exit->name),
+                            true);
     checkInterrupt();
   }
 
@@ -429,7 +597,8 @@ class CouplerRun final : public ExchangeDriver {
 
   void checkHellos() {
     std::vector<std::string> problems;
-    for (const auto& s : scene_.solvers) {
+    for (const auto* solver : activeSolvers()) {
+      const auto& s = *solver;
       const auto& info = session_->info(s.name);
       const std::string who = "solver '" + s.name + "' (" + (s.binary.empty() ? "attached" : s.binary) + ", " +
                               info.kind + " " + info.version + ")";
@@ -452,14 +621,15 @@ class CouplerRun final : public ExchangeDriver {
     }
     if (problems.empty()) return;
     // Every peer hears why the run will not start, so all of them leave now.
-    for (const auto& s : scene_.solvers) session_->refuse(s.name, "run refused: " + joined(problems));
+    for (const auto* solver : activeSolvers()) session_->refuse(solver->name, "run refused: " + joined(problems));
     throw Refused(joined(problems));
   }
 
   void setUpPeers() {
     std::vector<std::pair<std::string, std::uint64_t>> pending;
     for (const auto& c : scene_.couplings) c->stageSetup(inputs_);
-    for (const auto& s : scene_.solvers) {
+    for (const auto* solver : activeSolvers()) {
+      const auto& s = *solver;
       auto& inputs = inputs_[s.name];
       wire::OutMessage m(scene_.text.size() / 8 + 256 + inputs.words());
       fillSetup(m.envelope().getBody().initSetup(), scene_, s, inputs, runDir_, resumeFrom_.has_value());
@@ -498,7 +668,8 @@ class CouplerRun final : public ExchangeDriver {
     report_.schedule = scene_.schedule->describe();
     report_.plannedExchanges = scene_.schedule->exchanges();
     report_.endTime = scene_.schedule->endTime();
-    for (const auto& s : scene_.solvers) {
+    for (const auto* solver : activeSolvers()) {
+      const auto& s = *solver;
       PeerTiming p;
       p.name = s.name;
       p.kind = session_->info(s.name).kind;
@@ -736,6 +907,15 @@ class CouplerRun final : public ExchangeDriver {
   std::optional<wire::PeerSession> session_;
   ProcessGroup processes_;
   std::set<std::string> faulty_;
+  struct InFlightAdoption {
+    std::string adopter;
+    std::uint64_t seq = 0;
+    bool answersNow = false;
+  };
+  std::vector<InFlightAdoption> adoptions_;  // AdoptCells requests not yet answered
+  std::vector<wire::Reply> adoptedAnswers_;  // their answers to this exchange's jobs
+  std::set<std::string> lastAdvanced_;  // the solvers that advanced in the last exchange
+  std::set<std::string> lost_;  // workers lost mid-run whose cells moved to the others (gmh on_worker_loss: move)
   std::set<std::string> warnedCritical_;  // solvers whose step was reported above their critical step
   CheckpointStore checkpoints_;
   std::optional<CheckpointStore::Point> resumeFrom_;

@@ -13,7 +13,8 @@
 #include "cosim/dem/io/checkpoint.hpp"
 #include "cosim/dem/measure/measures.hpp"
 #include "cosim/dem/solver/yaml_section.hpp"
-#include "cosim/wire/solver.hpp"
+#include <capnp/message.h>
+
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/solver.hpp"
 
@@ -205,27 +206,81 @@ void UnitCellWorker::answer(proto::CouplingData::Reader inputs, proto::CouplingD
   const auto jobLists = inputs.getUnitCellJobs();
   auto resultLists = outputs.initUnitCellResults(jobLists.size());
   std::string failures;
-  for (unsigned list = 0; list < jobLists.size(); ++list) {
-    const auto jobs = jobLists[list];
-    const auto ids = wire::view(jobs.getCellIds());
-    const auto strains = wire::view(jobs.getStrainIncrements());
-    if (strains.size() != 9 * ids.size())
-      throw SolverError(Code::BAD_INPUT, "unit-cell jobs: " + std::to_string(strains.size()) + " strain values for " +
-                                             std::to_string(ids.size()) + " cells (need 9 each)");
-    for (std::uint32_t id : ids) cell(id);  // every id known before any cell moves
-    const auto n = static_cast<unsigned>(ids.size());
-    ResultRows rows(resultLists[list], n);
-    for (unsigned k = 0; k < n; ++k) {
-      const JobOutcome o = runUnitCellJob(cell(ids[k]), increment(strains, k, ids[k]), relax_);
-      rows.set(k, ids[k], o.measures, static_cast<std::uint32_t>(o.steps));
-      if (const std::string why = o.problem(); !why.empty()) {
-        rows.fail(k);
-        failures += (failures.empty() ? "" : "; ") + std::string("cell ") + std::to_string(ids[k]) + ": " + why;
-      }
+  for (unsigned list = 0; list < jobLists.size(); ++list) run(jobLists[list], resultLists[list], failures);
+  refuseFailures(failures);
+  writeFineTimeStep(outputs);
+}
+
+void UnitCellWorker::run(proto::UnitCellJobs::Reader jobs, proto::UnitCellResults::Builder results,
+                         std::string& failures) {
+  const auto ids = wire::view(jobs.getCellIds());
+  const auto strains = wire::view(jobs.getStrainIncrements());
+  if (strains.size() != 9 * ids.size())
+    throw SolverError(Code::BAD_INPUT, "unit-cell jobs: " + std::to_string(strains.size()) + " strain values for " +
+                                           std::to_string(ids.size()) + " cells (need 9 each)");
+  for (std::uint32_t id : ids) cell(id);  // every id known before any cell moves
+  const auto n = static_cast<unsigned>(ids.size());
+  ResultRows rows(results, n);
+  for (unsigned k = 0; k < n; ++k) {
+    const JobOutcome o = runUnitCellJob(cell(ids[k]), increment(strains, k, ids[k]), relax_);
+    rows.set(k, ids[k], o.measures, static_cast<std::uint32_t>(o.steps));
+    if (const std::string why = o.problem(); !why.empty()) {
+      rows.fail(k);
+      failures += (failures.empty() ? "" : "; ") + std::string("cell ") + std::to_string(ids[k]) + ": " + why;
     }
   }
+}
+
+void UnitCellWorker::refuseFailures(const std::string& failures) const {
   if (!failures.empty() && !relax_.continueOnFailure)
     throw SolverError(Code::SOLVER_FAILURE, "unit cells failed: " + failures);
+}
+
+void UnitCellWorker::adopt(proto::AdoptCells::Reader request, proto::CouplingData::Builder outputs) {
+  const std::string path = request.getPath();
+  const std::string what = "adopting unit cells from " + path;
+  std::unique_ptr<UnitCellWorker> lost;
+  try {
+    lost = restore(path);
+  } catch (const std::exception& e) {
+    throw SolverError(Code::BAD_INPUT, what + ": " + e.what());
+  }
+  if (!lost) throw SolverError(Code::BAD_INPUT, what + ": not a unit-cell worker checkpoint");
+  if (!(lost->relax_ == relax_))
+    throw SolverError(Code::BAD_INPUT, what + ": its cells relaxed with other unit_cells settings (dt, tolerance, "
+                                              "max_steps, load_steps, min_coordination, on_failure, stress_free_exit) "
+                                              "than this worker's, so their answers here would differ; give the "
+                                              "pool's workers the same settings");
+  const auto ids = wire::view(request.getCellIds());
+  for (std::uint32_t id : ids) {
+    if (index_.count(id)) throw SolverError(Code::BAD_INPUT, what + ": this worker holds unit cell " + std::to_string(id) + " already");
+    if (!lost->index_.count(id))
+      throw SolverError(Code::BAD_INPUT, what + ": the checkpoint holds no unit cell " + std::to_string(id));
+  }
+  const auto jobLists = request.getJobs();
+  const std::set<std::uint32_t> adopted(ids.begin(), ids.end());
+  for (auto jobs : jobLists)
+    for (std::uint32_t id : wire::view(jobs.getCellIds()))
+      if (!adopted.count(id))
+        throw SolverError(Code::BAD_INPUT, what + ": a replayed job names unit cell " + std::to_string(id) +
+                                               ", which is not among the cells adopted");
+  for (std::uint32_t id : ids) add(id, std::move(lost->cell(id)));
+  std::string failures;
+  if (jobLists.size() == 0) {
+    const auto n = static_cast<unsigned>(ids.size());
+    ResultRows rows(outputs.initUnitCellResults(1)[0], n);
+    for (unsigned k = 0; k < n; ++k) rows.set(k, ids[k], measureCell(cell(ids[k])), 0);
+  } else {
+    // The jobs before the last were answered by the lost worker already: only
+    // their effect on the cells' states counts, so their results are scratch.
+    for (unsigned list = 0; list + 1 < jobLists.size(); ++list) {
+      capnp::MallocMessageBuilder scratch;
+      std::string ignored;
+      run(jobLists[list], scratch.initRoot<proto::UnitCellResults>(), ignored);
+    }
+    run(jobLists[jobLists.size() - 1], outputs.initUnitCellResults(1)[0], failures);
+  }
+  refuseFailures(failures);
   writeFineTimeStep(outputs);
 }
 

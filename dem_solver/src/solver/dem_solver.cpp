@@ -48,7 +48,7 @@ wire::SolverInfo DemSolver::info() const {
   i.capabilities = wire::baseCapabilities();
   for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
                         "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots",
-                        "unit-cells", "hybrid-particles"})
+                        "unit-cells", "unit-cell-adoption", "hybrid-particles"})
     i.capabilities.emplace_back(c);
   return i;
 }
@@ -596,6 +596,12 @@ std::uint64_t DemSolver::checkpoint(const std::string& path) {
   } catch (const std::exception& e) {
     throw SolverError(Code::SOLVER_FAILURE, e.what());
   }
+}
+
+void DemSolver::adoptCells(proto::AdoptCells::Reader request, proto::CouplingData::Builder outputs) {
+  if (!cells_)
+    throw SolverError(Code::UNEXPECTED, "solver '" + instance_ + "' holds no unit cells (params.unit_cells) to adopt others into");
+  cells_->adopt(request, outputs);
 }
 
 void DemSolver::restore(const std::string& path) {

@@ -37,12 +37,17 @@ struct LinkOptions {
 /// last heard from it.
 class PeerFault : public std::runtime_error {
  public:
-  PeerFault(std::string peer, const std::string& message)
-      : std::runtime_error(message), peer_(std::move(peer)) {}
+  PeerFault(std::string peer, const std::string& message, bool gone = false)
+      : std::runtime_error(message), peer_(std::move(peer)), gone_(gone) {}
   const std::string& peer() const { return peer_; }
+  /// The peer died, fell silent or cannot be reached: it will not answer
+  /// again. Otherwise it answered wrongly (an error reply, a malformed or
+  /// misaddressed message), which says something about the run itself.
+  bool gone() const { return gone_; }
 
  private:
   std::string peer_;
+  bool gone_ = false;
 };
 
 /// Traffic figures per peer, for the run report.
@@ -81,6 +86,10 @@ class PeerSession {
   Reply awaitReply(const std::string& peer, std::uint64_t seq);
   /// Waits for several replies at once (peers compute in parallel meanwhile).
   std::vector<Reply> awaitReplies(const std::vector<std::pair<std::string, std::uint64_t>>& pending);
+  /// The run carries on without this peer (it died or hung and its work moved
+  /// elsewhere): its pending requests are forgotten, it gets no heartbeats and
+  /// is not watched, and whatever it still sends is dropped.
+  void dropPeer(const std::string& peer);
 
   /// Asks every welcomed peer (but those in skip: known dead or hung) to shut
   /// down and waits up to timeoutS for their answers.
@@ -97,6 +106,7 @@ class PeerSession {
   struct Peer {
     PeerInfo info;
     bool welcomed = false;
+    bool dropped = false;  // dropPeer: the run goes on without it
     std::uint64_t nextSeq = 1;
     double lastHeardAt = 0.0;
     std::string lastHeardWhat = "nothing";
@@ -113,7 +123,7 @@ class PeerSession {
   void onHello(const std::string& name, InMessage&& message);
   void checkLiveness();
   void sendHeartbeats();
-  [[noreturn]] void fault(const std::string& peer, const std::string& what) const;
+  [[noreturn]] void fault(const std::string& peer, const std::string& what, bool gone = false) const;
 
   RouterSocket& socket_;
   LinkOptions options_;

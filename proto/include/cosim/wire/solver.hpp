@@ -90,6 +90,12 @@ class Solver {
   /// bitwise as if nothing had been done ahead. Returns whether it did any
   /// work (the host reports its time with the next advance).
   virtual bool workAhead() { return false; }
+  /// A GMH worker (capability unit-cell-adoption) takes over the unit cells a
+  /// lost worker held: loads them from its checkpoint, runs the jobs they were
+  /// sent since, and answers with the results of the last jobs (session.capnp).
+  virtual void adoptCells(proto::AdoptCells::Reader /*request*/, proto::CouplingData::Builder /*outputs*/) {
+    throw SolverError(proto::Error::Code::UNSUPPORTED, "this solver holds no unit cells to adopt others into");
+  }
   /// Size hint (8-byte words) for reply buffers, so large outputs stay in one segment.
   virtual std::size_t outputWordsHint() const { return 1024; }
 };

@@ -6,6 +6,7 @@
 #include <ostream>
 #include <set>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,17 @@ class InputAssembler {
   void buildHybrid(proto::CouplingData::Builder data) const;
 };
 
+/// Work a lost participant held, for another participant to take over
+/// (session.capnp AdoptCells): the unit cells, whose checkpoint holds them,
+/// and the jobs they were sent since that checkpoint, oldest first.
+struct CellAdoption {
+  std::string adopter;  // the participant that takes them
+  std::string source;   // the participant whose file in the latest checkpoint holds them
+  std::vector<std::uint32_t> ids;
+  std::vector<InputAssembler::StagedUnitCellJobs> jobs;  // views into the coupling's record of its jobs
+  bool answersNow = false;  // the last jobs are the ones the lost participant owed in this exchange
+};
+
 struct ExchangeContext {
   std::uint64_t exchange = 0;  // 0 = the outputs of setup
   double time = 0.0;
@@ -156,6 +168,19 @@ class Coupling {
   /// What the run loses with a participant that died or hung (e.g. the unit
   /// cells a worker held), for the message that stops the run; empty if nothing.
   virtual std::string describeLoss(const std::string& /*solver*/) const { return {}; }
+  /// Whether the run can go on without this participant, its work moved to
+  /// the others (gmh with on_worker_loss: move).
+  virtual bool canHandOver(const std::string& /*lost*/) const { return false; }
+  /// Moves the lost participant's work to the others: from now on the
+  /// coupling counts on them instead. `exchange` is the exchange whose
+  /// requests are out; the adoptions replay the work since the latest
+  /// checkpoint up to it. Throws std::runtime_error when it cannot.
+  virtual std::vector<CellAdoption> handOver(const std::string& lost, std::uint64_t /*exchange*/) {
+    throw std::runtime_error("coupling '" + name() + "' cannot go on without '" + lost + "'");
+  }
+  /// A checkpoint was taken after this exchange (or a run resumed from it):
+  /// what a hand-over replays starts after it.
+  virtual void checkpointTaken(std::uint64_t /*exchange*/) {}
   /// Lowers the participants' critical steps by the stiffness the coupling
   /// adds (penalty springs), after setupReference; what `dt: auto` uses.
   virtual void limitCriticalSteps(std::map<std::string, double>& /*criticalDt*/) const {}

@@ -2,13 +2,15 @@
 // The run's checkpoints: checkpoints/exchange-<k>/ holds every solver's own
 // checkpoint file (<solver>.chk), each solver's last reply (<solver>.last.bin,
 // from which the couplings restage the next inputs), the reference solution's
-// state (analysis.bin) and the scene text. The
+// state (analysis.bin), the couplings' state (couplings.bin), the workers the
+// run lost (lost_solvers.txt) and the scene text. The
 // directory becomes visible under its final name only once complete, so a
 // crash while checkpointing never leaves a half checkpoint to resume from.
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 
 namespace cosim::coupler {
@@ -42,6 +44,10 @@ class CheckpointStore {
   static std::filesystem::path analysisState(const std::filesystem::path& dir);
   /// The couplings' counts (couplings.bin), when one of them keeps any.
   static std::filesystem::path couplingState(const std::filesystem::path& dir);
+  /// The workers the run lost and moved the work of (lost_solvers.txt, one
+  /// name per line; absent: none): a resumed run does not start them.
+  static void saveLostSolvers(const std::filesystem::path& dir, const std::set<std::string>& lost);
+  static std::set<std::string> lostSolvers(const std::filesystem::path& dir);
 
  private:
   std::filesystem::path root_;

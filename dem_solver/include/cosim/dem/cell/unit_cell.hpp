@@ -100,6 +100,7 @@ struct RelaxSettings {
   // budget, and spending the budget on it dominated L4 and L5 (0 = off).
   double stressFreePressure = 0.0;  // [Pa]
   long stressFreeAfter = 0;
+  bool operator==(const RelaxSettings&) const = default;
 };
 
 struct JobOutcome {

@@ -40,6 +40,7 @@
 
 #include "cosim/dem/cell/unit_cell.hpp"
 #include "data.capnp.h"
+#include "session.capnp.h"
 
 namespace cosim::dem {
 
@@ -51,6 +52,12 @@ class UnitCellWorker {
                                                     const std::string& baseDir = "");
   /// Answers every UnitCellJobs list in inputs with a UnitCellResults list in outputs.
   void answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs);
+  /// Takes over cells of a worker the run lost (session.capnp AdoptCells):
+  /// loads them from its checkpoint, runs the jobs they were sent since, and
+  /// writes the results of the last jobs (or the cells as loaded, without
+  /// jobs). The cells relax with this worker's settings, which must be the
+  /// lost worker's, so their answers are those the lost worker would have given.
+  void adopt(proto::AdoptCells::Reader request, proto::CouplingData::Builder outputs);
   /// The state of every cell it holds, without a job: its setup reply, which
   /// tells the coupler the cell ids this worker owns and their initial stresses.
   void report(proto::CouplingData::Builder outputs) const;
@@ -72,6 +79,9 @@ class UnitCellWorker {
 
  private:
   void writeFineTimeStep(proto::CouplingData::Builder outputs) const;
+  /// Runs one jobs list into rows; appends the cells that failed to `failures`.
+  void run(proto::UnitCellJobs::Reader jobs, proto::UnitCellResults::Builder results, std::string& failures);
+  void refuseFailures(const std::string& failures) const;
   RelaxSettings relax_;
   std::vector<std::uint32_t> ids_;
   std::vector<std::unique_ptr<DemSystem>> cells_;

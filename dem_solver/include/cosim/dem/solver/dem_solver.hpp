@@ -26,6 +26,7 @@ class DemSolver final : public wire::Solver {
   void fields(const std::vector<std::string>& names, proto::CouplingData::Builder out) override;
   std::uint64_t checkpoint(const std::string& path) override;
   void restore(const std::string& path) override;
+  void adoptCells(proto::AdoptCells::Reader request, proto::CouplingData::Builder outputs) override;
   double time() const override { return cells_ ? cells_->time : system_.time; }
   std::uint64_t step() const override { return cells_ ? cells_->steps : system_.step; }
   double criticalDt() const override;
