@@ -66,7 +66,7 @@ Bytes sceneWith(YAML::Node entry);
 /// The text of a file of the source tree.
 std::string sourceText(const std::string& relative);
 
-/// Lowers the memory the solvers' size checks allow (util::capAvailableMemory)
+/// Lowers the memory the solvers' size checks allow (COSIM_MEMORY_LIMIT)
 /// to what sets up in milliseconds, writes the fixtures and keeps OpenMP to
 /// one thread. Called once by every solver target.
 void prepareSolverTarget();

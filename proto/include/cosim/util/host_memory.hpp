@@ -3,15 +3,19 @@
 // sizes before they allocate (a lattice, a packing, a PD body's bonds): a size
 // beyond it is refused with the key to change, not left to end in bad_alloc.
 
+#include <string>
+
 namespace cosim::util {
 
-/// The machine's physical memory, or the address-space limit (ulimit -v) when
-/// that is lower, or the cap below; infinite when none can be read.
+/// The smallest of: the machine's physical memory, the address-space limit
+/// (ulimit -v), the memory limit of the process's cgroup (cgroup v2
+/// memory.max: a Slurm job's --mem, a container's limit) and the bytes in
+/// the environment variable COSIM_MEMORY_LIMIT (a decimal or floating-point
+/// number); infinite when none can be read. Throws std::runtime_error naming
+/// the variable when COSIM_MEMORY_LIMIT is not a positive number.
 double availableMemoryBytes();
 
-/// Caps what availableMemoryBytes() reports in this process (0: no cap). The
-/// fuzz targets set one, so that the solvers' own size checks refuse the
-/// scenes that would take seconds to build.
-void capAvailableMemory(double bytes);
+/// The limit in a cgroup v2 memory.max file's text ("max": none, infinite).
+double cgroupMemoryLimit(const std::string& memoryMaxText);
 
 }  // namespace cosim::util
