@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene_overrides.hpp"
+#include "cosim/coupler/launch/slurm.hpp"
 #include "cosim/coupler/run/coupler_run.hpp"
 #include "cosim/coupler/run/solver_check.hpp"
 #include "cosim/coupler/sweep/sweep.hpp"
@@ -23,6 +26,7 @@ constexpr const char* kUsage =
     "                              [--exchanges N]\n"
     "                  [--log-level LEVEL]\n"
     "       coupler check SCENE.yaml [--set KEY=VALUE ...] [--out DIR]\n"
+    "       coupler sbatch SCENE.yaml [--set KEY=VALUE ...] [--out DIR] [--partition P] [--time T]\n"
     "       coupler sweep SCENE.yaml --set KEY=V1,V2,... [--set KEY2=A,B ...] [--out DIR] [--jobs N] [--force]\n"
     "\n"
     "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
@@ -30,6 +34,9 @@ constexpr const char* kUsage =
     "  check  validate the scene, print the coupling graph and the processes it would\n"
     "         start, and have each solver check its section (BINARY --check: it sets up\n"
     "         in a scratch directory and exits); runs nothing\n"
+    "  sbatch write DIR/<scene>.sbatch, a Slurm batch script that asks for the allocation the\n"
+    "         scene's solvers need (launch: srun, resources:) and runs it there; prints how to\n"
+    "         submit it (docs/cluster.md)\n"
     "  sweep  run the scene once per combination of the --set values (cartesian product),\n"
     "         each as a `coupler run` into DIR/<index>_<key=value...>/ (output in its\n"
     "         coupler.log); write DIR/sweep.csv and plots of error against wall time\n"
@@ -60,6 +67,28 @@ std::uint64_t parseExchangeCount(const std::string& text) {
   return std::stoull(text);
 }
 
+/// `coupler sbatch`: the batch script, in the run directory (which Slurm needs
+/// to exist for the job's output file).
+int writeSbatch(const Scene& scene, const SbatchOptions& options) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::absolute(options.outDir.empty() ? scene.output.dir : options.outDir);
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  const fs::path file = dir / (scene.name + ".sbatch");
+  fs::create_directories(dir, ec);
+  std::ofstream out(file);
+  out << sbatchScript(scene, ec ? std::string("coupler") : self.string(), options);
+  if (!out) {
+    std::cerr << "coupler: cannot write " << file.string() << "\n";
+    return kExitFailure;
+  }
+  out.close();
+  fs::permissions(file, fs::perms::owner_exec, fs::perm_options::add, ec);
+  describeResources(scene, std::cout);
+  std::cout << "wrote " << file.string() << "\nsubmit it with: sbatch " << file.string() << "\n";
+  return kExitOk;
+}
+
 int usageError(const std::string& message) {
   std::cerr << "coupler: " << message << "\n" << kUsage;
   return kExitBadConfig;
@@ -83,10 +112,12 @@ int couplerMain(int argc, char** argv) {
       return usageError(e.what());
     }
   }
-  if (command != "run" && command != "check") return usageError("unknown command '" + command + "'");
+  if (command != "run" && command != "check" && command != "sbatch")
+    return usageError("unknown command '" + command + "'");
   std::string scenePath;
   RunOptions options;
   std::vector<SceneOverride> overrides;
+  SbatchOptions batch;
   for (std::size_t i = 1; i < args.size(); ++i) {
     const auto& a = args[i];
     auto value = [&]() -> std::string {
@@ -101,6 +132,8 @@ int couplerMain(int argc, char** argv) {
       else if (a == "--no-progress") options.progress = false;
       else if (a == "--exchanges") options.stopAfter = parseExchangeCount(value());
       else if (a == "--log-level") log::setLevel(log::parseLevel(value()));
+      else if (command == "sbatch" && a == "--partition") batch.partition = value();
+      else if (command == "sbatch" && a == "--time") batch.time = value();
       else if (!a.empty() && a[0] == '-') return usageError("unknown option '" + a + "'");
       else if (scenePath.empty()) scenePath = a;
       else return usageError("more than one scene given ('" + scenePath + "', '" + a + "')");
@@ -121,6 +154,10 @@ int couplerMain(int argc, char** argv) {
                                                            : std::to_string(problems.size()) + " solver(s) refuse theirs")
                 << "\n";
       return problems.empty() ? kExitOk : kExitBadConfig;
+    }
+    if (command == "sbatch") {
+      batch.outDir = options.outDir;
+      return writeSbatch(scene, batch);
     }
     return runScene(scene, options);
   } catch (const config::ConfigError& e) {

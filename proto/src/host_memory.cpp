@@ -16,26 +16,38 @@ namespace {
 
 constexpr double kUnlimited = std::numeric_limits<double>::infinity();
 
-/// The cgroup (v2) this process is in, from /proc/self/cgroup ("0::/path").
-std::string ownCgroup() {
+/// The file holding the memory limit of each cgroup from this process's up
+/// to the root: cgroup v2 ("0::/path": memory.max) or the v1 memory
+/// controller ("N:memory:/path": memory.limit_in_bytes).
+struct CgroupFiles {
+  std::string root, path, file;
+};
+CgroupFiles ownCgroup() {
   std::ifstream in("/proc/self/cgroup");
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("0::", 0) == 0) return line.substr(3);
-  return {};
+  CgroupFiles v2;
+  for (std::string line; std::getline(in, line);) {
+    const auto first = line.find(':'), second = line.find(':', first + 1);
+    if (first == std::string::npos || second == std::string::npos) continue;
+    const std::string controllers = line.substr(first + 1, second - first - 1), path = line.substr(second + 1);
+    if (controllers == "memory") return {"/sys/fs/cgroup/memory", path, "memory.limit_in_bytes"};
+    if (line.rfind("0::", 0) == 0) v2 = {"/sys/fs/cgroup", path, "memory.max"};
+  }
+  return v2;
 }
 
-/// The tightest memory.max from the process's cgroup up to the root: a
-/// parent's limit binds its children too.
+/// The tightest limit from the process's cgroup up to the root: a parent's
+/// limit binds its children too. Levels the process cannot see (a container
+/// shows its own cgroup as the root) are skipped.
 double cgroupLimit() {
-  const std::string group = ownCgroup();
-  if (group.empty()) return kUnlimited;
+  const CgroupFiles group = ownCgroup();
+  if (group.path.empty()) return kUnlimited;
   double limit = kUnlimited;
-  for (std::string path = group; !path.empty(); path = path.substr(0, path.find_last_of('/'))) {
-    std::ifstream in("/sys/fs/cgroup" + path + "/memory.max");
+  for (std::string path = group.path;; path = path.substr(0, path.find_last_of('/'))) {
+    std::ifstream in(group.root + (path == "/" ? "" : path) + "/" + group.file);
     std::stringstream text;
     text << in.rdbuf();
     if (in) limit = std::min(limit, cgroupMemoryLimit(text.str()));
-    if (path == "/") break;
+    if (path.empty() || path == "/") break;
   }
   return limit;
 }
@@ -59,7 +71,9 @@ double cgroupMemoryLimit(const std::string& memoryMaxText) {
   if (word.empty() || word == "max") return kUnlimited;
   char* end = nullptr;
   const double bytes = std::strtod(word.c_str(), &end);
-  return end != word.c_str() && *end == '\0' && bytes > 0.0 ? bytes : kUnlimited;
+  // cgroup v1 writes "no limit" as the largest page-aligned 63-bit number.
+  constexpr double kV1Unlimited = 9.0e18;
+  return end != word.c_str() && *end == '\0' && bytes > 0.0 && bytes < kV1Unlimited ? bytes : kUnlimited;
 }
 
 double availableMemoryBytes() {

@@ -21,6 +21,7 @@
 
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/config/scene.hpp"
+#include "cosim/coupler/launch/slurm.hpp"
 #include "cosim/coupler/run/coupler_run.hpp"
 
 namespace fs = std::filesystem;
@@ -251,6 +252,74 @@ TEST(GoodScene, TcpTransportWithAllTimeouts) {
   EXPECT_TRUE(scene.couplings.empty());
   EXPECT_EQ(scene.output.dir, "runs/tcp-run");
   EXPECT_EQ(scene.schedule->exchanges(), 10u);
+}
+
+/// Two mocks, `right` a Slurm job step (with `resources` and `transport` as given).
+std::string srunScene(TempDir& dir, const std::string& resources, const std::string& transport = "") {
+  return dir.write("srun.yaml", "scene: srun-run\n" + transport +
+                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                    "solvers:\n"
+                                    "  - {name: left, kind: mock}\n"
+                                    "  - {name: right, kind: mock, launch: srun" + resources + "}\n");
+}
+
+TEST(GoodScene, SrunSolversDefaultToTcpWithCurveAndKeepAnExplicitTransport) {
+  TempDir dir;
+  const Scene cluster = loadScene(srunScene(dir, ", resources: {cpus_per_task: 4, memory: 8G, overlap: true}"));
+  EXPECT_TRUE(cluster.usesSlurm());
+  EXPECT_EQ(cluster.transport.kind, cosim::wire::TransportOptions::Kind::tcp);
+  EXPECT_EQ(cluster.transport.interface, "0.0.0.0");
+  EXPECT_TRUE(cluster.transport.curve);
+  const auto& r = cluster.solvers[1].resources;
+  EXPECT_EQ(r.cpusPerTask, 4);
+  EXPECT_EQ(r.memory, "8G");
+  EXPECT_TRUE(r.overlap);
+  EXPECT_FALSE(cluster.solvers[1].binary.empty());  // resolved like a spawned solver's
+  const Scene ipc = loadScene(srunScene(dir, "", "transport: {kind: ipc}\n"));
+  EXPECT_EQ(ipc.transport.kind, cosim::wire::TransportOptions::Kind::ipc);
+  const Scene plain = loadScene(srunScene(dir, "", "transport: {kind: tcp, interface: 10.0.0.1}\n"));
+  EXPECT_EQ(plain.transport.interface, "10.0.0.1");
+  EXPECT_FALSE(plain.transport.curve);  // the scene chose its transport
+}
+
+TEST(SlurmLaunch, AStepIsOneTaskWithItsCoresThreadsAndMemory) {
+  TempDir dir;
+  const Scene scene = loadScene(srunScene(dir, ", resources: {cpus_per_task: 4, memory: 8G}"));
+  const auto args = cosim::coupler::srunArguments(scene.solvers[1], {"--endpoint", "tcp://h:1", "--name", "right"});
+  const std::vector<std::string> expected{"--job-name=right", "--nodes=1", "--ntasks=1", "--cpus-per-task=4",
+                                          "--export=ALL,OMP_NUM_THREADS=4", "--exact", "--quiet", "--mem=8G", "--",
+                                          scene.solvers[1].binary, "--endpoint", "tcp://h:1", "--name", "right"};
+  EXPECT_EQ(args, expected);
+}
+
+TEST(SlurmLaunch, ThePlanSizesTheAllocationAndTheBatchScriptAsksForIt) {
+  TempDir dir;
+  const auto path = dir.write("pool.yaml",
+                              "scene: pool\n"
+                              "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                              "solvers:\n"
+                              "  - {name: block, kind: mock}\n"
+                              "  - {name: w0, kind: mock, launch: srun, resources: {cpus_per_task: 2, memory: 4G}}\n"
+                              "  - {name: w1, kind: mock, launch: srun, resources: {cpus_per_task: 2, memory: 3G}}\n"
+                              "  - {name: w2, kind: mock, launch: srun, resources: {cpus_per_task: 1, memory: 512M}}\n");
+  const Scene scene = loadScene(path);
+  const auto plan = cosim::coupler::planResources(scene);
+  EXPECT_EQ(plan.localProcesses, 2);  // the coupler and block
+  EXPECT_EQ(plan.steps, 3);
+  EXPECT_EQ(plan.tasks, 4);
+  EXPECT_EQ(plan.cpusPerTask, 2);
+  EXPECT_EQ(plan.coresUsed, 2 + 2 + 2 + 1);
+  EXPECT_EQ(plan.memoryPerCpuMb, 2048);  // w0: 4 GB over 2 cores
+  std::ostringstream described;
+  cosim::coupler::describeResources(scene, described);
+  EXPECT_NE(described.str().find("allocation: 4 task(s) x 2 core(s) = 8 cores (7 used"), std::string::npos)
+      << described.str();
+  const auto script = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "debug", "02:00:00"});
+  for (const char* line : {"#!/bin/bash\n", "#SBATCH --job-name=pool\n", "#SBATCH --ntasks=4\n",
+                           "#SBATCH --cpus-per-task=2\n", "#SBATCH --mem-per-cpu=2048M\n",
+                           "#SBATCH --partition=debug\n", "#SBATCH --time=02:00:00\n", "exec '/opt/cosim/coupler' run '"})
+    EXPECT_NE(script.find(line), std::string::npos) << line << "\n" << script;
+  EXPECT_NE(script.find("--out '" + fs::absolute("runs/pool").string() + "' --no-progress"), std::string::npos) << script;
 }
 
 TEST(GoodScene, AutoTimeStepResolvesFromTheCriticalStep) {
@@ -543,6 +612,30 @@ TEST_F(CouplerCheck, ASolverThatRefusesItsParamsIsNamedWithItsMessage) {
   EXPECT_EQ(r.err.find("solver 'left'"), std::string::npos) << r.err;
   EXPECT_NE(r.out.find("solver params: 1 solver(s) refuse theirs"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::is_empty(cwd_.path()));
+}
+
+TEST_F(CouplerCheck, SrunOutsideAnAllocationIsRefusedAndSbatchWritesTheScript) {
+  ::unsetenv("SLURM_JOB_ID");  // this test's coupler runs in no allocation, wherever the tests run
+  TempDir sceneDir;
+  const auto scene = srunScene(sceneDir, ", resources: {cpus_per_task: 2}");
+  const auto refused = runProcess({couplerBinary(), "run", scene, "--out", "run", "--no-progress"}, cwd_.path());
+  EXPECT_EQ(refused.exitCode, cosim::coupler::kExitRefused) << refused.err;
+  EXPECT_NE(refused.err.find("solvers with launch: srun start as job steps of a Slurm allocation, and this coupler "
+                             "runs in none (SLURM_JOB_ID is not set)"),
+            std::string::npos)
+      << refused.err;
+  const auto check = runProcess({couplerBinary(), "check", scene}, cwd_.path());
+  EXPECT_EQ(check.exitCode, cosim::coupler::kExitOk) << check.err;
+  EXPECT_NE(check.out.find("job step: srun --job-name=right --nodes=1 --ntasks=1 --cpus-per-task=2"), std::string::npos)
+      << check.out;
+  EXPECT_NE(check.out.find("slurm: 1 solver(s) as job steps"), std::string::npos) << check.out;
+  const auto batch = runProcess({couplerBinary(), "sbatch", scene, "--out", "batch", "--time", "00:10:00"}, cwd_.path());
+  EXPECT_EQ(batch.exitCode, cosim::coupler::kExitOk) << batch.err;
+  const auto file = cwd_.path() / "batch" / "srun-run.sbatch";
+  EXPECT_NE(batch.out.find("submit it with: sbatch " + file.string()), std::string::npos) << batch.out;
+  const auto text = readText(file);
+  EXPECT_NE(text.find("#SBATCH --time=00:10:00\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(" run '" + scene + "' --out '" + (cwd_.path() / "batch").string() + "'"), std::string::npos) << text;
 }
 
 TEST_F(CouplerCheck, UsageErrorsExitTwo) {

@@ -50,6 +50,7 @@ TEST(HostMemory, ABadEnvironmentLimitIsRefusedNamingIt) {
 TEST(HostMemory, CgroupMemoryMaxIsReadAsBytesOrNone) {
   EXPECT_EQ(cgroupMemoryLimit("8589934592\n"), 8589934592.0);
   EXPECT_TRUE(std::isinf(cgroupMemoryLimit("max\n")));
+  EXPECT_TRUE(std::isinf(cgroupMemoryLimit("9223372036854771712\n")));  // v1's "no limit"
   EXPECT_TRUE(std::isinf(cgroupMemoryLimit("")));
   EXPECT_TRUE(std::isinf(cgroupMemoryLimit("garbage")));
 }

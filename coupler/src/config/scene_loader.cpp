@@ -47,8 +47,11 @@ fs::path ownDirectory() {
 
 void readTransport(MapReader& m, Scene& scene) {
   auto& t = scene.transport;
+  scene.transportKindGiven = m.has("kind");
   t.kind = m.choice("kind", {"ipc", "tcp"}, std::string("ipc")) == "tcp" ? wire::TransportOptions::Kind::tcp
                                                                         : wire::TransportOptions::Kind::ipc;
+  scene.transportInterfaceGiven = m.has("interface");
+  scene.transportCurveGiven = m.has("curve");
   t.interface = m.string("interface", "127.0.0.1");
   t.port = static_cast<int>(m.integer("port", 0, 0, 65535));
   t.curve = m.boolean("curve", false);
@@ -66,6 +69,25 @@ void readTransport(MapReader& m, Scene& scene) {
     m.error("curve", "applies to tcp only (an ipc socket is private to its 0700 run directory)");
 }
 
+/// `resources: {cpus_per_task, memory, overlap}` of a solver started by srun.
+void readResources(MapReader& parent, SlurmResources& r) {
+  MapReader m(parent.node("resources"), parent.keyPath("resources"), parent.diagnostics());
+  if (!m.valid()) return;
+  for (const char* key : {"tasks", "nodes"})
+    if (m.has(key) && m.integer(key, 1, 1, 1000000) != 1)
+      m.error(key, "a solver instance is one process (one task on one node); declare a pool's workers as solvers "
+                   "of their own, and Slurm spreads their steps over the allocation's nodes");
+  r.cpusPerTask = static_cast<int>(m.integer("cpus_per_task", 1, 1, 100000));
+  if (m.has("memory")) {
+    r.memory = m.requireString("memory");
+    static const std::regex memory("[1-9][0-9]*[KMGT]?");
+    if (!std::regex_match(r.memory, memory))
+      m.error("memory", "expected a size as srun --mem takes it (e.g. 512M, 4G), got '" + r.memory + "'");
+  }
+  r.overlap = m.boolean("overlap", false);
+  m.finish();
+}
+
 void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::set<std::string>& names) {
   SolverSpec s;
   s.line = m.mark().line + 1;
@@ -76,8 +98,14 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
   if (!s.name.empty() && !names.insert(s.name).second) m.error("name", "a solver named '" + s.name + "' is already declared");
   s.kind = m.requireString("kind");
   const auto binary = m.optionalString("binary");
-  const auto launch = m.choice("launch", {"spawn", "attach"}, std::string("spawn"));
-  s.launch = launch == "attach" ? SolverSpec::Launch::attach : SolverSpec::Launch::spawn;
+  const auto launch = m.choice("launch", {"spawn", "attach", "srun"}, std::string("spawn"));
+  s.launch = launch == "attach" ? SolverSpec::Launch::attach
+             : launch == "srun" ? SolverSpec::Launch::srun
+                                : SolverSpec::Launch::spawn;
+  if (m.has("resources")) {
+    if (s.launch != SolverSpec::Launch::srun) m.error("resources", "applies to launch: srun (a Slurm job step) only");
+    else readResources(m, s.resources);
+  }
   s.args = m.stringList("args");
   s.extraCapabilities = m.stringList("requires");
   m.node("params");  // the solver's own section: the solver validates it at setup
@@ -89,7 +117,7 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
   }
   const std::string wanted = binary ? *binary : (defaultBinaries().count(s.kind) ? defaultBinaries().at(s.kind) : "");
   s.binary = wanted;
-  if (s.launch == SolverSpec::Launch::spawn && !wanted.empty()) {
+  if (s.launch != SolverSpec::Launch::attach && !wanted.empty()) {
     s.binary = findExecutable(wanted, sceneDir);
     if (s.binary.empty())
       m.error(binary ? "binary" : "kind", "solver executable '" + wanted +
@@ -276,6 +304,10 @@ const SolverSpec* Scene::solver(const std::string& n) const {
   return nullptr;
 }
 
+bool Scene::usesSlurm() const {
+  return std::any_of(solvers.begin(), solvers.end(), [](const SolverSpec& s) { return s.launch == SolverSpec::Launch::srun; });
+}
+
 std::vector<std::string> Scene::requiredCapabilities(const std::string& solverName) const {
   std::set<std::string> caps{"setup", "advance"};
   if (output.checkpointInterval > 0) caps.insert({"checkpoint", "restore"});
@@ -296,6 +328,17 @@ Scene loadScene(const std::string& path) {
   std::stringstream text;
   text << in.rdbuf();
   return loadSceneText(text.str(), path, fs::absolute(path).parent_path().string());
+}
+
+/// A job step may run on another node: unless the scene says otherwise the
+/// coupler listens on every interface over tcp, with CurveZMQ, so that only
+/// the run's own solvers are heard.
+void defaultClusterTransport(Scene& scene) {
+  auto& t = scene.transport;
+  if (scene.transportKindGiven) return;
+  t.kind = wire::TransportOptions::Kind::tcp;
+  if (!scene.transportInterfaceGiven) t.interface = "0.0.0.0";
+  if (!scene.transportCurveGiven) t.curve = true;
 }
 
 Scene loadSceneText(const std::string& text, const std::string& displayName, const std::string& sceneDir) {
@@ -325,6 +368,7 @@ Scene loadSceneText(const std::string& text, const std::string& displayName, con
     root.node("transport");
   }
   readSolvers(root, sceneDir, scene);
+  if (scene.usesSlurm()) defaultClusterTransport(scene);
   readSchedule(root, scene);
   readCouplings(root, scene);
   readAnalysis(root, scene);

@@ -14,6 +14,7 @@
 #include "cosim/config/config_reader.hpp"
 #include "cosim/coupler/analysis/run_report.hpp"
 #include "cosim/coupler/launch/process_group.hpp"
+#include "cosim/coupler/launch/slurm.hpp"
 #include "cosim/coupler/run/checkpoint_store.hpp"
 #include "cosim/coupler/run/solver_check.hpp"
 #include "cosim/io/h5_file.hpp"
@@ -45,9 +46,9 @@ struct Interrupted : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-std::string joined(const std::vector<std::string>& items) {
+std::string joined(const std::vector<std::string>& items, const std::string& separator = ", ") {
   std::string out;
-  for (const auto& i : items) out += (out.empty() ? "" : ", ") + i;
+  for (const auto& i : items) out += (out.empty() ? "" : separator) + i;
   return out;
 }
 
@@ -376,17 +377,20 @@ class CouplerRun final : public ExchangeDriver {
 
   void checkpoint() {
     const auto dir = checkpoints_.begin(exchange_);
-    auto pending = requestCheckpoints(dir);
-    const auto lostBefore = lost_.size();
+    std::size_t lostBefore = lost_.size();
     std::set<std::string> owed;
+    auto pending = requestCheckpoints(dir);
     awaitRepliesHandingOver(pending, {}, owed);
     adoptedAnswers_.clear();  // the lost workers answered this exchange before they were lost
-    if (lost_.size() != lostBefore) {
-      // Moved from the previous checkpoint: the next requests go to the
-      // adopters (restaged as a resumed run restages them), whose files must
-      // now hold the adopted cells too.
+    // Moved from the previous checkpoint: the next requests go to the
+    // adopters (restaged as a resumed run restages them), whose files must
+    // now hold the adopted cells too; again while the round loses a worker.
+    while (lost_.size() != lostBefore) {
+      lostBefore = lost_.size();
       runCouplings(lastAdvanced_, true);
-      session_->awaitReplies(requestCheckpoints(dir));
+      auto again = requestCheckpoints(dir);
+      awaitRepliesHandingOver(again, {}, owed);
+      adoptedAnswers_.clear();
     }
     CheckpointStore::saveLostSolvers(dir, lost_);
     for (const auto& [name, msg] : latest_) msg.save(CheckpointStore::solverLastReply(dir, name).string());
@@ -397,13 +401,21 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& c : scene_.couplings) c->checkpointTaken(exchange_);
   }
 
+  /// Asks every solver the run has for its checkpoint in dir. A worker that
+  /// cannot be reached is handed over here (its cells move from the previous
+  /// checkpoint, checkpoint() asks the adopters again).
   std::vector<std::pair<std::string, std::uint64_t>> requestCheckpoints(const fs::path& dir) {
     std::vector<std::pair<std::string, std::uint64_t>> pending;
+    std::set<std::string> owed;
     for (const auto* solver : activeSolvers()) {
       wire::OutMessage m;
       m.envelope().getBody().initCheckpoint().setPath(
           fs::absolute(CheckpointStore::solverCheckpoint(dir, solver->name)).string());
-      pending.emplace_back(solver->name, session_->request(solver->name, m));
+      try {
+        pending.emplace_back(solver->name, session_->request(solver->name, m));
+      } catch (const wire::PeerFault& e) {
+        handOverOrRethrow(e, false, owed);
+      }
     }
     return pending;
   }
@@ -532,7 +544,24 @@ class CouplerRun final : public ExchangeDriver {
     log::info("placement: the coupler and the solvers it starts run on CPUs " + util::describeCpus(cpus));
   }
 
+  /// launch: srun needs an allocation to start steps in, and srun itself.
+  void findSlurm() {
+    if (!scene_.usesSlurm()) return;
+    slurm_ = currentSlurmAllocation();
+    if (!slurm_)
+      throw Refused(scene_.file + ": solvers with launch: srun start as job steps of a Slurm allocation, and this coupler "
+                    "runs in none (SLURM_JOB_ID is not set): submit the run with the script `coupler sbatch " +
+                    scene_.file + "` writes, or run it inside salloc");
+    srun_ = findExecutable("srun", scene_.sceneDir);
+    if (srun_.empty()) throw Refused("launch: srun: no srun executable on $PATH");
+    if (scene_.transport.kind == wire::TransportOptions::Kind::ipc && slurm_->nodes > 1)
+      throw Refused(scene_.file + ": transport kind ipc reaches this host only, and Slurm job " + slurm_->jobId +
+                    " spans " + std::to_string(slurm_->nodes) + " nodes (" + slurm_->nodeList +
+                    "): leave transport.kind out (tcp with CurveZMQ is the default with launch: srun) or set tcp");
+  }
+
   void startPeers() {
+    findSlurm();
     endpoint_ = wire::bindEndpoint(scene_.transport, runDir_);
     std::optional<wire::CurveKeyPair> curve;
     std::vector<std::string> environment;
@@ -548,13 +577,20 @@ class CouplerRun final : public ExchangeDriver {
     }
     socket_.emplace(endpoint_, curve);
     endpoint_ = socket_->endpoint();
-    const auto connectTo = wire::connectableEndpoint(endpoint_);
+    const auto connectTo =
+        scene_.usesSlurm() ? wire::connectableFromAnyHost(endpoint_) : wire::connectableEndpoint(endpoint_);
     session_.emplace(*socket_, scene_.link);
     session_->setWatchdog([this] { watchdog(); });
     for (const auto* solver : activeSolvers()) {
       const auto& s = *solver;
       if (s.launch == SolverSpec::Launch::spawn) {
         processes_.spawn(s.name, s.binary, launchArgs(s, connectTo), environment);
+      } else if (s.launch == SolverSpec::Launch::srun) {
+        // A job step: srun forwards the signals the coupler sends it to the
+        // task, and exits when the step ends (cancelled, failed, its node lost).
+        const auto args = srunArguments(s, launchArgs(s, connectTo));
+        log::info("starting solver '" + s.name + "' as a job step of Slurm job " + slurm_->jobId + ": srun " + joined(args, " "));
+        processes_.spawn(s.name, srun_, args, environment);
       } else {
         log::info("waiting for solver '" + s.name + "' to connect to " + connectTo + " (start it with: " +
                   (s.binary.empty() ? s.kind + "_solver" : s.binary) + " --endpoint " + connectTo + " --name " + s.name +
@@ -914,6 +950,8 @@ class CouplerRun final : public ExchangeDriver {
   };
   std::vector<InFlightAdoption> adoptions_;  // AdoptCells requests not yet answered
   std::vector<wire::Reply> adoptedAnswers_;  // their answers to this exchange's jobs
+  std::optional<SlurmAllocation> slurm_;  // the allocation launch: srun steps start in
+  std::string srun_;                      // srun's path
   std::set<std::string> lastAdvanced_;  // the solvers that advanced in the last exchange
   std::set<std::string> lost_;  // workers lost mid-run whose cells moved to the others (gmh on_worker_loss: move)
   std::set<std::string> warnedCritical_;  // solvers whose step was reported above their critical step
@@ -963,6 +1001,8 @@ void describeScene(const Scene& scene, std::ostream& out) {
     if (s.launch == SolverSpec::Launch::spawn) {
       out << "start " << s.binary << " --endpoint <endpoint> --name " << s.name;
       for (const auto& a : s.args) out << " " << a;
+    } else if (s.launch == SolverSpec::Launch::srun) {
+      out << "job step: srun " << joined(srunArguments(s, launchArgs(s, "<endpoint>")), " ");
     } else {
       out << "attach: waits for it to connect";
     }
@@ -984,6 +1024,7 @@ void describeScene(const Scene& scene, std::ostream& out) {
               ? "tcp on " + scene.transport.interface + (scene.transport.curve ? " (CurveZMQ)" : "")
               : "ipc")
       << ", heartbeat " << scene.link.heartbeatIntervalS << " s, timeout " << scene.link.heartbeatTimeoutS << " s\n";
+  describeResources(scene, out);
   out << "output: " << scene.output.dir << "/coupler.h5\n";
 }
 

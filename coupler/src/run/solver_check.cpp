@@ -96,7 +96,7 @@ std::vector<std::string> checkSolverParams(const Scene& scene, const fs::path& s
   std::vector<Check> checks;
   std::vector<std::string> problems;
   for (const auto& s : scene.solvers) {
-    if (s.launch != SolverSpec::Launch::spawn) continue;
+    if (s.launch == SolverSpec::Launch::attach) continue;  // a job step's binary is checked here, on the coupler's host
     const fs::path dir = scratch / s.name;
     fs::create_directories(dir / "run");
     auto& staged = inputs[s.name];

@@ -22,6 +22,10 @@ std::string bindEndpoint(const TransportOptions& transport, const std::filesyste
 /// the address a peer on this host should connect to.
 std::string connectableEndpoint(const std::string& boundEndpoint);
 
+/// The same for peers that may run on another host (Slurm job steps): this
+/// host's name instead of the wildcard.
+std::string connectableFromAnyHost(const std::string& boundEndpoint);
+
 /// Removes an ipc socket file (and its private temp dir) after the run.
 void removeIpcEndpoint(const std::string& endpoint);
 

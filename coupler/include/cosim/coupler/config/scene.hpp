@@ -13,11 +13,23 @@
 
 namespace cosim::coupler {
 
+/// What a solver started as a Slurm job step asks for (`resources:` with
+/// `launch: srun`; docs/cluster.md). A solver instance is one process (one
+/// task on one node) with cpusPerTask cores for its OpenMP threads.
+struct SlurmResources {
+  int cpusPerTask = 1;
+  std::string memory;    // srun --mem (e.g. 4G); empty: the allocation's default
+  bool overlap = false;  // share CPUs with the run's other steps (srun --overlap)
+};
+
 struct SolverSpec {
   std::string name;
   std::string kind;
-  std::string binary;  // resolved path of the executable (spawn), as written otherwise
-  enum class Launch { spawn, attach } launch = Launch::spawn;
+  std::string binary;  // resolved path of the executable (spawn, srun), as written otherwise
+  /// spawn: a child process here; attach: started by the user, it connects;
+  /// srun: a job step of the Slurm allocation the coupler runs in.
+  enum class Launch { spawn, attach, srun } launch = Launch::spawn;
+  SlurmResources resources;  // launch: srun
   std::vector<std::string> args;
   std::vector<std::string> extraCapabilities;  // `requires:` in the scene
   int line = 0;
@@ -53,6 +65,8 @@ struct Scene {
   std::string name;
   std::string description;
   wire::TransportOptions transport;
+  // Which transport keys the scene wrote (launch: srun changes the defaults).
+  bool transportKindGiven = false, transportInterfaceGiven = false, transportCurveGiven = false;
   wire::LinkOptions link;
   double connectTimeoutS = 30.0;
   std::vector<SolverSpec> solvers;
@@ -63,6 +77,8 @@ struct Scene {
   PlacementSpec placement;
 
   const SolverSpec* solver(const std::string& name) const;
+  /// Whether a solver is started by srun (and so may run on another host).
+  bool usesSlurm() const;
   /// Capabilities the run needs from one solver (schedule, couplings, output, requires).
   std::vector<std::string> requiredCapabilities(const std::string& solver) const;
 };
