@@ -261,6 +261,8 @@ void readOutput(MapReader& root, Scene& scene) {
   MapReader m(root.node("output"), "output", root.diagnostics());
   if (!m.valid()) return;
   scene.output.dir = m.string("dir", scene.output.dir);
+  if (std::any_of(scene.output.dir.begin(), scene.output.dir.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }))
+    m.error("dir", "contains a control character, which no directory name should");
   scene.output.flushInterval = m.integer("flush_interval", 100, 1, 1000000000);
   scene.output.seriesEvery = m.integer("series_every", 1, 1, 1000000000);
   scene.output.checkpointInterval = m.integer("checkpoint_interval", 0, 0, 1000000000);

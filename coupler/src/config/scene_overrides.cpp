@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include "cosim/config/config_reader.hpp"
@@ -231,14 +232,21 @@ std::string applyOverrides(const std::string& sceneText, const std::string& scen
   return header + "\n" + out.c_str() + "\n";
 }
 
+static bool usableAsPath(const std::string& text) {
+  return std::none_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; });
+}
+
 fs::path runDirectoryOf(const std::string& sceneText, const std::string& sceneFile, const std::string& outDir) {
   if (!outDir.empty()) return outDir;
   const YAML::Node root = config::loadYamlString(sceneText, sceneFile);
   const auto scalarAt = [](const YAML::Node& n) { return n && n.IsScalar() && !n.Scalar().empty() ? n.Scalar() : ""; };
+  // Only what can name a directory: the loader reports an unusable name or
+  // dir at its line, in the effective scene written beside the file's stem.
+  static const std::regex sceneName("[A-Za-z0-9][A-Za-z0-9_.-]*");
   if (root.IsMap()) {
     if (root["output"] && root["output"].IsMap())
-      if (auto dir = scalarAt(root["output"]["dir"]); !dir.empty()) return dir;
-    if (auto name = scalarAt(root["scene"]); !name.empty()) return fs::path("runs") / name;
+      if (auto dir = scalarAt(root["output"]["dir"]); !dir.empty() && usableAsPath(dir)) return dir;
+    if (auto name = scalarAt(root["scene"]); std::regex_match(name, sceneName)) return fs::path("runs") / name;
   }
   return fs::path("runs") / fs::path(sceneFile).stem();
 }

@@ -45,7 +45,9 @@ std::string applyOverrides(const std::string& sceneText, const std::string& scen
                            const std::vector<SceneOverride>& overrides);
 
 /// Where a run of this (effective) scene text writes: outDir when given, else
-/// its output.dir, else runs/<scene>, else runs/<file stem>.
+/// its output.dir, else runs/<scene>, else runs/<file stem> (a dir with a
+/// control character or an invalid scene name is passed over: the loader
+/// reports it at its line).
 std::filesystem::path runDirectoryOf(const std::string& sceneText, const std::string& sceneFile,
                                      const std::string& outDir);
 
