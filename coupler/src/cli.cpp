@@ -27,6 +27,7 @@ constexpr const char* kUsage =
     "                  [--log-level LEVEL]\n"
     "       coupler check SCENE.yaml [--set KEY=VALUE ...] [--out DIR]\n"
     "       coupler sbatch SCENE.yaml [--set KEY=VALUE ...] [--out DIR] [--partition P] [--time T]\n"
+    "                              [--heterogeneous]\n"
     "       coupler sweep SCENE.yaml --set KEY=V1,V2,... [--set KEY2=A,B ...] [--out DIR] [--jobs N] [--force]\n"
     "\n"
     "  run    validate the scene, start the solvers it names, run it, write DIR/coupler.h5\n"
@@ -36,7 +37,7 @@ constexpr const char* kUsage =
     "         in a scratch directory and exits); runs nothing\n"
     "  sbatch write DIR/<scene>.sbatch, a Slurm batch script that asks for the allocation the\n"
     "         scene's solvers need (launch: srun, resources:) and runs it there; prints how to\n"
-    "         submit it (docs/cluster.md)\n"
+    "         submit it; --heterogeneous: one job component per kind of task (docs/cluster.md)\n"
     "  sweep  run the scene once per combination of the --set values (cartesian product),\n"
     "         each as a `coupler run` into DIR/<index>_<key=value...>/ (output in its\n"
     "         coupler.log); write DIR/sweep.csv and plots of error against wall time\n"
@@ -134,6 +135,7 @@ int couplerMain(int argc, char** argv) {
       else if (a == "--log-level") log::setLevel(log::parseLevel(value()));
       else if (command == "sbatch" && a == "--partition") batch.partition = value();
       else if (command == "sbatch" && a == "--time") batch.time = value();
+      else if (command == "sbatch" && a == "--heterogeneous") batch.heterogeneous = true;
       else if (!a.empty() && a[0] == '-') return usageError("unknown option '" + a + "'");
       else if (scenePath.empty()) scenePath = a;
       else return usageError("more than one scene given ('" + scenePath + "', '" + a + "')");

@@ -292,7 +292,7 @@ TEST(SlurmLaunch, AStepIsOneTaskWithItsCoresThreadsAndMemory) {
   EXPECT_EQ(args, expected);
 }
 
-TEST(SlurmLaunch, ThePlanSizesTheAllocationAndTheBatchScriptAsksForIt) {
+TEST(SlurmLaunch, ThePlanGroupsTheStepsIntoComponentsAndTheBatchScriptAsksForThem) {
   TempDir dir;
   const auto path = dir.write("pool.yaml",
                               "scene: pool\n"
@@ -306,19 +306,30 @@ TEST(SlurmLaunch, ThePlanSizesTheAllocationAndTheBatchScriptAsksForIt) {
   const auto plan = cosim::coupler::planResources(scene);
   EXPECT_EQ(plan.localProcesses, 2);  // the coupler and block
   EXPECT_EQ(plan.steps, 3);
-  EXPECT_EQ(plan.tasks, 4);
-  EXPECT_EQ(plan.cpusPerTask, 2);
-  EXPECT_EQ(plan.coresUsed, 2 + 2 + 2 + 1);
-  EXPECT_EQ(plan.memoryPerCpuMb, 2048);  // w0: 4 GB over 2 cores
+  ASSERT_EQ(plan.components.size(), 4u);  // the coupler's; w0; w1; w2 (each asks for other cores or memory)
+  EXPECT_EQ(plan.components[0].cpusPerTask, 2);
+  EXPECT_EQ(plan.components[1].solvers, std::vector<std::string>{"w0"});
+  EXPECT_EQ(plan.components[1].memoryPerCpuMb(), 2048);  // 4 GB over 2 cores
+  EXPECT_EQ(plan.components[3].memoryPerCpuMb(), 512);
+  EXPECT_EQ(plan.cores(), 2 + 2 + 2 + 1);
+  EXPECT_EQ(plan.componentOf("w2"), 3);
+  EXPECT_EQ(plan.componentOf("block"), -1);
   std::ostringstream described;
   cosim::coupler::describeResources(scene, described);
-  EXPECT_NE(described.str().find("allocation: 4 task(s) x 2 core(s) = 8 cores (7 used"), std::string::npos)
-      << described.str();
-  const auto script = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "debug", "02:00:00"});
-  for (const char* line : {"#!/bin/bash\n", "#SBATCH --job-name=pool\n", "#SBATCH --ntasks=4\n",
-                           "#SBATCH --cpus-per-task=2\n", "#SBATCH --mem-per-cpu=2048M\n",
-                           "#SBATCH --partition=debug\n", "#SBATCH --time=02:00:00\n", "exec '/opt/cosim/coupler' run '"})
+  EXPECT_NE(described.str().find("job: 4 component(s), 7 cores"), std::string::npos) << described.str();
+  EXPECT_NE(described.str().find("component 1: 1 task(s) x 2 core(s), 4G each: w0"), std::string::npos) << described.str();
+  const auto alike = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "debug", "02:00:00", false});
+  EXPECT_NE(alike.find("#SBATCH --ntasks=4 --cpus-per-task=2 --mem-per-cpu=2048M --partition=debug --time=02:00:00\n"),
+            std::string::npos) << alike;
+  EXPECT_NE(alike.find("# (1 of its 8 cores go unused"), std::string::npos) << alike;
+  EXPECT_EQ(alike.find("hetjob"), std::string::npos) << alike;
+  const auto script = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "debug", "02:00:00", true});
+  for (const char* line : {"#!/bin/bash\n", "#SBATCH --job-name=pool\n",
+                           "#SBATCH --ntasks=1 --cpus-per-task=2 --partition=debug --time=02:00:00\n#SBATCH hetjob\n",
+                           "#SBATCH --ntasks=1 --cpus-per-task=2 --mem-per-cpu=2048M --partition=debug --time=02:00:00\n",
+                           "#SBATCH --ntasks=1 --cpus-per-task=1 --mem-per-cpu=512M", "exec '/opt/cosim/coupler' run '"})
     EXPECT_NE(script.find(line), std::string::npos) << line << "\n" << script;
+  EXPECT_EQ(cosim::coupler::srunArguments(scene.solvers[3], {}, 3)[1], "--het-group=3");
   EXPECT_NE(script.find("--out '" + fs::absolute("runs/pool").string() + "' --no-progress"), std::string::npos) << script;
 }
 
@@ -629,12 +640,13 @@ TEST_F(CouplerCheck, SrunOutsideAnAllocationIsRefusedAndSbatchWritesTheScript) {
   EXPECT_NE(check.out.find("job step: srun --job-name=right --nodes=1 --ntasks=1 --cpus-per-task=2"), std::string::npos)
       << check.out;
   EXPECT_NE(check.out.find("slurm: 1 solver(s) as job steps"), std::string::npos) << check.out;
+  EXPECT_NE(check.out.find("component 1: 1 task(s) x 2 core(s): right"), std::string::npos) << check.out;
   const auto batch = runProcess({couplerBinary(), "sbatch", scene, "--out", "batch", "--time", "00:10:00"}, cwd_.path());
   EXPECT_EQ(batch.exitCode, cosim::coupler::kExitOk) << batch.err;
   const auto file = cwd_.path() / "batch" / "srun-run.sbatch";
   EXPECT_NE(batch.out.find("submit it with: sbatch " + file.string()), std::string::npos) << batch.out;
   const auto text = readText(file);
-  EXPECT_NE(text.find("#SBATCH --time=00:10:00\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(" --time=00:10:00\n"), std::string::npos) << text;
   EXPECT_NE(text.find(" run '" + scene + "' --out '" + (cwd_.path() / "batch").string() + "'"), std::string::npos) << text;
 }
 

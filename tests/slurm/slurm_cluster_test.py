@@ -9,6 +9,8 @@ slurmctld and slurmd, and then:
   (a) runs a GMH scene whose four workers are `launch: srun` job steps, inside
       salloc, and checks its pool and FEM series identical to the bit to the
       same scene with the workers spawned locally;
+  (c) submits it with the batch script `coupler sbatch` writes (sbatch
+      --wait) and checks the same series;
   (b) runs it again with `on_worker_loss: move`, cancels one worker's job step
       (scancel JOB.STEP) once the run is past its first checkpoint, and checks
       that the coupler named the lost worker, moved its cells, completed the
@@ -90,7 +92,7 @@ class Cluster:
             f.write(os.urandom(1024))
         os.chmod(self.key, 0o400)
         self.socket = os.path.join(self.root, "munge", "munge.socket")
-        cpus = os.cpu_count() or 2
+        cpus = max(16, os.cpu_count() or 2)
         lines = {
             "ClusterName": "cosimtest", "SlurmctldHost": host, "SlurmUser": "root", "SlurmdUser": "root",
             "AuthType": "auth/munge", "CredType": "cred/munge", "AuthInfo": "socket=" + self.socket,
@@ -102,6 +104,9 @@ class Cluster:
             "ProctrackType": "proctrack/linuxproc", "TaskPlugin": "task/none", "MpiDefault": "none",
             "SelectType": "select/cons_tres", "SelectTypeParameters": "CR_CPU", "SchedulerType": "sched/builtin",
             "ReturnToService": "2", "JobAcctGatherType": "jobacct_gather/none",
+            # The node offers more cores than the machine has, so a batch job's
+            # components fit beside each other whatever this machine's size.
+            "SlurmdParameters": "config_overrides",
             "AccountingStorageType": "accounting_storage/none",
         }
         with open(self.conf, "w") as f:
@@ -207,6 +212,25 @@ def scenario(cluster, binaries, work, failures):
     if code == 0:
         check(failures, same(pool(physics(os.path.join(work, "srun"))), pool(physics(os.path.join(work, "local")))),
               "its pool and FEM series are identical to the bit to the local run's")
+
+    # (c) the same scene submitted with the batch script coupler sbatch writes.
+    batch = os.path.join(work, "batch")
+    made = subprocess.run([coupler, "sbatch", srun, "--out", batch, "--time", "00:10:00"], env=env, capture_output=True,
+                          text=True)
+    script = os.path.join(batch, "gmh-pool-scale.sbatch")
+    check(failures, made.returncode == 0 and ("submit it with: sbatch " + script) in made.stdout,
+          "coupler sbatch writes the batch script (exit %s)" % made.returncode)
+    if made.returncode == 0:
+        submitted = subprocess.run(["sbatch", "--wait", "--quiet", script], env=env, capture_output=True, text=True,
+                                   timeout=300)
+        outputs = [f for f in os.listdir(batch) if f.startswith("slurm-") and f.endswith(".out")]
+        text = open(os.path.join(batch, outputs[0])).read() if outputs else ""
+        check(failures, submitted.returncode == 0 and text.count("as a job step of Slurm job") == 4,
+              "the batch job completes, its four workers started as job steps (exit %s%s)"
+              % (submitted.returncode, "" if outputs else ", no output file"))
+        if submitted.returncode == 0:
+            check(failures, same(pool(physics(batch)), pool(physics(os.path.join(work, "local")))),
+                  "the batch job's pool and FEM series are identical to the bit to the local run's")
 
     # (b) a worker's step cancelled mid-run: its cells move, the run completes.
     steps = 1500

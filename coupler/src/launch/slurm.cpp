@@ -47,18 +47,24 @@ std::optional<SlurmAllocation> currentSlurmAllocation() {
   const std::string nodes = environment("SLURM_JOB_NUM_NODES");
   a.nodes = nodes.empty() ? 1 : std::max(1, std::atoi(nodes.c_str()));
   a.nodeList = environment("SLURM_JOB_NODELIST");
+  const std::string het = environment("SLURM_HET_SIZE");
+  a.components = het.empty() ? 0 : std::max(0, std::atoi(het.c_str()));
   return a;
 }
 
-std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs) {
+std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs,
+                                       int hetGroup) {
   const auto& r = solver.resources;
-  std::vector<std::string> args{"--job-name=" + solver.name, "--nodes=1", "--ntasks=1",
-                                "--cpus-per-task=" + std::to_string(r.cpusPerTask),
-                                // The solver's OpenMP threads use the cores its step holds.
-                                "--export=ALL,OMP_NUM_THREADS=" + std::to_string(r.cpusPerTask),
-                                // Steps get only what they ask for, so the others start beside them;
-                                // overlap lets them share cores (a small allocation, a test).
-                                r.overlap ? "--overlap" : "--exact", "--quiet"};
+  std::vector<std::string> args{"--job-name=" + solver.name};
+  if (hetGroup >= 0) args.push_back("--het-group=" + std::to_string(hetGroup));
+  for (std::string a : {"--nodes=1", "--ntasks=1"}) args.push_back(a);
+  args.push_back("--cpus-per-task=" + std::to_string(r.cpusPerTask));
+  // The solver's OpenMP threads use the cores its step holds.
+  args.push_back("--export=ALL,OMP_NUM_THREADS=" + std::to_string(r.cpusPerTask));
+  // Steps get only what they ask for, so the others start beside them;
+  // overlap lets them share cores (a small allocation, a test).
+  args.push_back(r.overlap ? "--overlap" : "--exact");
+  args.push_back("--quiet");
   if (!r.memory.empty()) args.push_back("--mem=" + r.memory);
   args.push_back("--");
   args.push_back(solver.binary);
@@ -66,25 +72,40 @@ std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vect
   return args;
 }
 
+long JobComponent::memoryPerCpuMb() const { return memory.empty() ? 0 : (megabytes(memory) + cpusPerTask - 1) / cpusPerTask; }
+
+int ResourcePlan::cores() const {
+  int n = 0;
+  for (const auto& c : components) n += c.tasks * c.cpusPerTask;
+  return n;
+}
+
+int ResourcePlan::componentOf(const std::string& solver) const {
+  for (std::size_t k = 1; k < components.size(); ++k)
+    if (std::find(components[k].solvers.begin(), components[k].solvers.end(), solver) != components[k].solvers.end())
+      return static_cast<int>(k);
+  return -1;
+}
+
 ResourcePlan planResources(const Scene& scene) {
   ResourcePlan p;
-  bool allMemory = true;
+  p.components.push_back({});
   for (const auto& s : scene.solvers) {
     if (s.launch == SolverSpec::Launch::spawn) ++p.localProcesses;
     if (s.launch == SolverSpec::Launch::attach) ++p.attached;
     if (s.launch != SolverSpec::Launch::srun) continue;
     ++p.steps;
-    p.cpusPerTask = std::max(p.cpusPerTask, s.resources.cpusPerTask);
-    p.coresUsed += s.resources.cpusPerTask;
-    if (s.resources.memory.empty()) allMemory = false;
-    else p.memoryPerCpuMb = std::max(p.memoryPerCpuMb, (megabytes(s.resources.memory) + s.resources.cpusPerTask - 1) /
-                                                            s.resources.cpusPerTask);
+    auto alike = std::find_if(p.components.begin() + 1, p.components.end(), [&](const JobComponent& c) {
+      return c.cpusPerTask == s.resources.cpusPerTask && c.memory == s.resources.memory;
+    });
+    if (alike == p.components.end()) {
+      p.components.push_back({0, s.resources.cpusPerTask, s.resources.memory, {}});
+      alike = p.components.end() - 1;
+    }
+    ++alike->tasks;
+    alike->solvers.push_back(s.name);
   }
-  // The coupler's task holds a core for it and one per solver it spawns.
-  p.cpusPerTask = std::max(p.cpusPerTask, p.localProcesses);
-  p.coresUsed += p.localProcesses - 1;
-  p.tasks = 1 + p.steps;
-  if (!allMemory || p.steps == 0) p.memoryPerCpuMb = 0;
+  p.components[0].cpusPerTask = p.localProcesses;
   return p;
 }
 
@@ -94,19 +115,27 @@ void describeResources(const Scene& scene, std::ostream& out) {
   out << "slurm: " << p.steps << " solver(s) as job steps, " << p.localProcesses
       << " process(es) in the coupler's task (the coupler and the solvers it spawns)";
   if (p.attached) out << ", " << p.attached << " attached";
-  out << "\n  allocation: " << p.tasks << " task(s) x " << p.cpusPerTask << " core(s) = " << p.tasks * p.cpusPerTask
-      << " cores (" << p.coresUsed << " used";
-  if (p.tasks * p.cpusPerTask > p.coresUsed) out << "; the tasks are sized for the largest one";
-  out << ")";
-  if (p.memoryPerCpuMb > 0) out << ", " << p.memoryPerCpuMb << " MB per core";
-  else out << ", memory: the partition's default (give every srun solver resources.memory to size it)";
-  out << "\n";
-  for (const auto& s : scene.solvers)
-    if (s.launch == SolverSpec::Launch::srun)
-      out << "  " << s.name << ": 1 task, " << s.resources.cpusPerTask << " core(s)"
-          << (s.resources.memory.empty() ? std::string() : ", " + s.resources.memory) << (s.resources.overlap ? ", overlap" : "")
-          << "\n";
+  out << "\n  job: " << p.components.size() << " component(s), " << p.cores() << " cores\n";
+  for (std::size_t k = 0; k < p.components.size(); ++k) {
+    const auto& c = p.components[k];
+    out << "  component " << k << ": " << c.tasks << " task(s) x " << c.cpusPerTask << " core(s)"
+        << (c.memory.empty() ? std::string() : ", " + c.memory + " each") << ": ";
+    if (k == 0) out << "the coupler";
+    for (std::size_t i = 0; i < c.solvers.size(); ++i) out << (i ? ", " : "") << c.solvers[i];
+    out << "\n";
+  }
 }
+
+namespace {
+std::string taskRequest(int tasks, int cpus, long memoryPerCpuMb, const SbatchOptions& options) {
+  std::ostringstream s;
+  s << "--ntasks=" << tasks << " --cpus-per-task=" << cpus;
+  if (memoryPerCpuMb > 0) s << " --mem-per-cpu=" << memoryPerCpuMb << "M";
+  if (!options.partition.empty()) s << " --partition=" << options.partition;
+  if (!options.time.empty()) s << " --time=" << options.time;
+  return s.str();
+}
+}  // namespace
 
 std::string sbatchScript(const Scene& scene, const std::string& couplerBinary, const SbatchOptions& options) {
   const auto p = planResources(scene);
@@ -114,13 +143,33 @@ std::string sbatchScript(const Scene& scene, const std::string& couplerBinary, c
   std::ostringstream s;
   s << "#!/bin/bash\n"
     << "#SBATCH --job-name=" << scene.name << "\n"
-    << "#SBATCH --ntasks=" << p.tasks << "\n"
-    << "#SBATCH --cpus-per-task=" << p.cpusPerTask << "\n";
-  if (p.memoryPerCpuMb > 0) s << "#SBATCH --mem-per-cpu=" << p.memoryPerCpuMb << "M\n";
-  if (!options.partition.empty()) s << "#SBATCH --partition=" << options.partition << "\n";
-  if (!options.time.empty()) s << "#SBATCH --time=" << options.time << "\n";
-  s << "#SBATCH --output=" << out << "/slurm-%j.out\n"
-    << "# Written by `coupler sbatch` for " << fs::absolute(scene.file).string() << ":\n"
+    << "#SBATCH --output=" << out << "/slurm-%j.out\n";
+  if (options.heterogeneous) {
+    // One component per kind of task: the coupler's, then the job steps'
+    // (the coupler starts each step in its component with srun --het-group).
+    for (std::size_t k = 0; k < p.components.size(); ++k) {
+      if (k > 0) s << "#SBATCH hetjob\n";
+      s << "#SBATCH " << taskRequest(p.components[k].tasks, p.components[k].cpusPerTask,
+                                     p.components[k].memoryPerCpuMb(), options) << "\n";
+    }
+  } else {
+    // Every task sized for the largest: what any Slurm schedules.
+    int tasks = 0, cpus = 1;
+    long memory = 0;
+    bool allMemory = true;
+    for (std::size_t k = 0; k < p.components.size(); ++k) {
+      const auto& c = p.components[k];
+      tasks += c.tasks;
+      cpus = std::max(cpus, c.cpusPerTask);
+      if (k > 0 && c.memory.empty()) allMemory = false;
+      memory = std::max(memory, c.memoryPerCpuMb());
+    }
+    s << "#SBATCH " << taskRequest(tasks, cpus, allMemory ? memory : 0, options) << "\n";
+    if (tasks * cpus > p.cores())
+      s << "# (" << tasks * cpus - p.cores() << " of its " << tasks * cpus
+        << " cores go unused: coupler sbatch --heterogeneous asks for each kind of task apart)\n";
+  }
+  s << "# Written by `coupler sbatch` for " << fs::absolute(scene.file).string() << ":\n"
     << "# the coupler runs in the batch step and starts the " << p.steps
     << " solver(s) with launch: srun as job steps of this allocation";
   if (p.localProcesses > 1) s << ", and " << p.localProcesses - 1 << " solver(s) beside it";

@@ -552,6 +552,13 @@ class CouplerRun final : public ExchangeDriver {
       throw Refused(scene_.file + ": solvers with launch: srun start as job steps of a Slurm allocation, and this coupler "
                     "runs in none (SLURM_JOB_ID is not set): submit the run with the script `coupler sbatch " +
                     scene_.file + "` writes, or run it inside salloc");
+    slurmPlan_ = planResources(scene_);
+    const auto planned = slurmPlan_.components.size();
+    if (slurm_->components > 0 && static_cast<std::size_t>(slurm_->components) != planned)
+      throw Refused(scene_.file + ": Slurm job " + slurm_->jobId + " is a heterogeneous job of " +
+                    std::to_string(slurm_->components) + " components, and the scene's solvers need " +
+                    std::to_string(planned) + " (the coupler's and one per kind of job step): submit the script `coupler "
+                    "sbatch " + scene_.file + "` writes");
     srun_ = findExecutable("srun", scene_.sceneDir);
     if (srun_.empty()) throw Refused("launch: srun: no srun executable on $PATH");
     if (scene_.transport.kind == wire::TransportOptions::Kind::ipc && slurm_->nodes > 1)
@@ -588,7 +595,8 @@ class CouplerRun final : public ExchangeDriver {
       } else if (s.launch == SolverSpec::Launch::srun) {
         // A job step: srun forwards the signals the coupler sends it to the
         // task, and exits when the step ends (cancelled, failed, its node lost).
-        const auto args = srunArguments(s, launchArgs(s, connectTo));
+        const auto args = srunArguments(s, launchArgs(s, connectTo),
+                                        slurm_->components > 0 ? slurmPlan_.componentOf(s.name) : -1);
         log::info("starting solver '" + s.name + "' as a job step of Slurm job " + slurm_->jobId + ": srun " + joined(args, " "));
         processes_.spawn(s.name, srun_, args, environment);
       } else {
@@ -951,6 +959,7 @@ class CouplerRun final : public ExchangeDriver {
   std::vector<InFlightAdoption> adoptions_;  // AdoptCells requests not yet answered
   std::vector<wire::Reply> adoptedAnswers_;  // their answers to this exchange's jobs
   std::optional<SlurmAllocation> slurm_;  // the allocation launch: srun steps start in
+  ResourcePlan slurmPlan_;                // its components, as coupler sbatch asks for them
   std::string srun_;                      // srun's path
   std::set<std::string> lastAdvanced_;  // the solvers that advanced in the last exchange
   std::set<std::string> lost_;  // workers lost mid-run whose cells moved to the others (gmh on_worker_loss: move)

@@ -14,28 +14,42 @@ struct Scene;
 struct SolverSpec;
 
 /// The allocation this process runs in (SLURM_JOB_ID, SLURM_JOB_NUM_NODES,
-/// SLURM_JOB_NODELIST), if any.
+/// SLURM_JOB_NODELIST, SLURM_HET_SIZE), if any.
 struct SlurmAllocation {
   std::string jobId;
   int nodes = 1;
   std::string nodeList;
+  int components = 0;  // of a heterogeneous job; 0: a homogeneous one
 };
 std::optional<SlurmAllocation> currentSlurmAllocation();
 
 /// The arguments after `srun` that start `solver` as a one-task job step
-/// running `binary` with `solverArgs`.
-std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs);
+/// running `binary` with `solverArgs`, in component `hetGroup` of a
+/// heterogeneous job (-1: a homogeneous one).
+std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs,
+                                       int hetGroup = -1);
 
-/// What a scene's processes ask for: the coupler and the solvers it spawns
-/// share one task (one core each); each srun solver is a task of its own.
+/// One component of the (heterogeneous) job a scene asks for: tasks alike in
+/// cores and memory.
+struct JobComponent {
+  int tasks = 1;
+  int cpusPerTask = 1;
+  std::string memory;                 // per task (srun --mem); empty: the partition's default
+  std::vector<std::string> solvers;   // the srun solvers it holds; none in component 0
+  long memoryPerCpuMb() const;        // for #SBATCH --mem-per-cpu; 0 without memory
+};
+
+/// What a scene's processes ask for: component 0 is the coupler's task, with
+/// one core for it and one per solver it spawns; each further component holds
+/// the srun solvers of one (cores, memory), in the order the scene names them.
 struct ResourcePlan {
   int localProcesses = 1;  // the coupler and its spawned solvers
   int steps = 0;           // srun solvers
   int attached = 0;        // started by the user
-  int tasks = 1;           // the allocation: the coupler's task and one per step
-  int cpusPerTask = 1;     // the largest task's cores (a homogeneous allocation)
-  int coresUsed = 1;       // what the tasks need
-  long memoryPerCpuMb = 0; // the largest step's memory per core; 0: some step names none
+  std::vector<JobComponent> components;
+  int cores() const;
+  /// The component (srun --het-group) of an srun solver; -1 for any other.
+  int componentOf(const std::string& solver) const;
 };
 ResourcePlan planResources(const Scene& scene);
 void describeResources(const Scene& scene, std::ostream& out);
@@ -44,8 +58,11 @@ struct SbatchOptions {
   std::string outDir;     // the run directory (--out); empty: the scene's output.dir
   std::string partition;  // #SBATCH --partition, if given
   std::string time;       // #SBATCH --time, if given
+  bool heterogeneous = false;  // one job component per kind of task (#SBATCH hetjob), else every task alike
 };
-/// A batch script that asks for the plan's allocation and runs the scene in it.
+/// A batch script that asks for the plan's allocation and runs the scene in
+/// it: every task sized for the largest one, or with `heterogeneous` a
+/// heterogeneous job of the plan's components.
 std::string sbatchScript(const Scene& scene, const std::string& couplerBinary, const SbatchOptions& options);
 
 }  // namespace cosim::coupler
