@@ -83,6 +83,12 @@ def scene(cell, cells, workers, steps, on_loss="stop"):
     return "\n".join(lines) + "\n"
 
 
+def pool(series):
+    """The pool's and FEM's series: the workers' own (energies, timings) name the
+    worker, and a lost worker's end where it was lost."""
+    return {k: v for k, v in series.items() if k.startswith(("cells/", "block/", "time", "exchange"))}
+
+
 def start(binaries, scene_file, out, extra=()):
     with open(out + ".log", "a") as log:
         return subprocess.Popen([os.path.join(binaries, "coupler"), "run", scene_file, "--out", out, "--no-progress"]
@@ -249,8 +255,6 @@ def main():
     got = {"undisturbed": answered(os.path.join(work, "undisturbed")), "few": answered(os.path.join(work, "few")),
            "disturbed": answered(os.path.join(work, "disturbed")) if ok_disturbed else 0,
            "moved": answered(os.path.join(work, "moved")) if ok_moved else 0}
-    # The series name the workers (their energies, timings): compare the pool's and FEM's only.
-    pool = lambda d: {k: v for k, v in d.items() if k.startswith(("cells/", "block/", "time", "exchange"))}
     same_few = same(pool(physics(os.path.join(work, "few"))), pool(reference))
     same_disturbed = ok_disturbed and same(physics(os.path.join(work, "disturbed")), reference)
     # A lost worker's own series end where it was lost: the pool's and FEM's must not change.

@@ -26,26 +26,22 @@ Needs numpy and h5py (Debian's /usr/bin/python3).
 import argparse
 import os
 import re
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-sys.path.insert(0, os.path.join(ROOT, "bench", "reliability"))
-from gmh_pool_scale import scene  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "support"))
+from checks import ROOT, SKIP, Checks, in_scratch  # noqa: E402
+from gmh_pool_scale import pool, scene  # noqa: E402
 from kill_resume import physics, run_dir_processes, same, wait  # noqa: E402
 
-SKIP = 77
 PORT = 47311
 HEARTBEAT_TIMEOUT = 3.0
 WORKERS = {"w00": 1, "w01": 1, "w02": 2, "w03": 2}  # worker -> host
 
 
-def log(message):
-    print("separate hosts test: " + message, flush=True)
+CHECKS = Checks("separate hosts test")
+log = CHECKS.log
 
 
 def ip(*args, check=True):
@@ -74,6 +70,8 @@ class Hosts:
             ip("-n", self.coupler, "link", "set", here, "up")
             ip("-n", ns, "link", "set", there, "up")
         self.links = {k: "c%d-%s" % (k, os.getpid() % 10000) for k in self.workers}
+        log("hosts up: %s (10.77.1.1, 10.77.2.1), %s (10.77.1.2), %s (10.77.2.2)"
+            % (self.coupler, self.workers[1], self.workers[2]))
 
     def run_in(self, ns, cmd):
         return ["ip", "netns", "exec", ns] + cmd
@@ -107,14 +105,6 @@ def write_scene(path, cell, steps, on_loss, attach):
     return path
 
 
-def pool(series):
-    return {k: v for k, v in series.items() if k.startswith(("cells/", "block/", "time", "exchange"))}
-
-
-def check(failures, ok, what):
-    log(("ok: " if ok else "FAILED: ") + what)
-    if not ok:
-        failures.append(what)
 
 
 def start(cmd, logfile, env):
@@ -166,7 +156,7 @@ def cut_second_host(hosts):
     return disturb
 
 
-def scenario(hosts, binaries, work, failures):
+def scenario(hosts, binaries, work):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     subprocess.run([os.path.join(binaries, "dem_prepare_cell"), "--out", os.path.join(work, "cell"), "--count", "60",
                     "--seed", "3"], check=True, stdout=subprocess.DEVNULL, env=env)
@@ -176,22 +166,22 @@ def scenario(hosts, binaries, work, failures):
         apart = write_scene(os.path.join(work, label + "-hosts.yaml"), cell, steps, on_loss, True)
         code, _ = wait(start([os.path.join(binaries, "coupler"), "run", local, "--out", os.path.join(work, label + "-local"),
                               "--no-progress"], os.path.join(work, label + "-local.log"), env), 600)
-        check(failures, code == 0, "%s: the one-host run completes (exit %s)" % (label, code))
+        CHECKS(code == 0, "%s: the one-host run completes (exit %s)" % (label, code))
         out = os.path.join(work, label + "-hosts")
         disturb = cut_second_host(hosts) if on_loss == "move" else None
         code, text, hung, detected = across_hosts(hosts, binaries, apart, out, env, disturb)
-        check(failures, code == 0 and not hung, "%s: the run across three hosts completes (exit %s)" % (label, code))
+        CHECKS(code == 0 and not hung, "%s: the run across three hosts completes (exit %s)" % (label, code))
         if disturb:
             lost = [w for w in ("w02", "w03") if "worker '%s' lost" % w in text]
-            check(failures, lost == ["w02", "w03"], "moved: both workers of the cut host are named lost (%s)" % lost)
-            check(failures, detected is not None and detected <= HEARTBEAT_TIMEOUT + 1.0,
+            CHECKS(lost == ["w02", "w03"], "moved: both workers of the cut host are named lost (%s)" % lost)
+            CHECKS(detected is not None and detected <= HEARTBEAT_TIMEOUT + 1.0,
                   "moved: detected %s s after the link went down (heartbeat timeout %g s)"
                   % ("%.2f" % detected if detected is not None else "never", HEARTBEAT_TIMEOUT))
-            check(failures, "silent for" in text, "moved: the coupler says they fell silent")
+            CHECKS("silent for" in text, "moved: the coupler says they fell silent")
         if code == 0:
-            check(failures, same(pool(physics(out)), pool(physics(os.path.join(work, label + "-local")))),
+            CHECKS(same(pool(physics(out)), pool(physics(os.path.join(work, label + "-local")))),
                   "%s: the pool and FEM series are identical to the bit to the one-host run's" % label)
-        check(failures, not run_dir_processes(out), "%s: no process outlives the run" % label)
+        CHECKS(not run_dir_processes(out), "%s: no process outlives the run" % label)
 
 
 def main():
@@ -207,26 +197,8 @@ def main():
         log("skipped: ip netns is refused here: " + probe.stderr.strip())
         return SKIP
     ip("netns", "del", "cosim-probe-%d" % os.getpid(), check=False)
-    work = tempfile.mkdtemp(prefix="cosim-hosts.")
-    hosts = Hosts()
-    failures = []
-    try:
-        hosts.up()
-        log("hosts up: %s (10.77.1.1, 10.77.2.1), %s (10.77.1.2), %s (10.77.2.2)"
-            % (hosts.coupler, hosts.workers[1], hosts.workers[2]))
-        scenario(hosts, a.bin, work, failures)
-    except Exception as e:  # a link or a run that could not start: a failure, with the logs kept
-        failures.append(str(e))
-        log("FAILED: %s" % e)
-    finally:
-        hosts.down()
-        if a.keep or failures:
-            log("kept %s" % work)
-        else:
-            shutil.rmtree(work, ignore_errors=True)
-    log("%d check(s) failed" % len(failures) if failures else "passed")
-    return 1 if failures else 0
-
+    return in_scratch(CHECKS, "cosim-hosts.", lambda work: Hosts(), lambda hosts, work: scenario(hosts, a.bin, work),
+                      a.keep)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -32,21 +32,18 @@ import signal
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-sys.path.insert(0, os.path.join(ROOT, "bench", "reliability"))
-from gmh_pool_scale import scene  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "support"))
+from checks import ROOT, SKIP, Checks, in_scratch  # noqa: E402
+from gmh_pool_scale import pool, scene  # noqa: E402
 from kill_resume import physics, run_dir_processes, same, wait  # noqa: E402
 
-SKIP = 77
 PACKAGES = ["slurm-wlm", "munge"]
 
 
-def log(message):
-    print("slurm test: " + message, flush=True)
+CHECKS = Checks("slurm test")
+log = CHECKS.log
 
 
 def as_root(cmd):
@@ -118,7 +115,8 @@ class Cluster:
     def path(self, name):
         return os.path.join(self.root, name)
 
-    def start(self):
+    def up(self):
+        os.makedirs(self.root, exist_ok=True)
         self.write()
         munged = shutil.which("munged") or "/usr/sbin/munged"
         self.spawn([munged, "--foreground", "--force", "--socket=" + self.socket, "--key-file=" + self.key,
@@ -130,6 +128,7 @@ class Cluster:
             self.spawn([exe, "-D", "-f", self.conf])
         self.until(lambda: "idle" in subprocess.run(["sinfo", "-h", "-o", "%T"], env=self.env, capture_output=True,
                                                    text=True).stdout, "the node to be idle")
+        log("one-node cluster up (%s)" % self.conf)
 
     def spawn(self, cmd):
         out = open(self.path("log/" + os.path.basename(cmd[0]) + ".out"), "w")
@@ -150,7 +149,7 @@ class Cluster:
         r = subprocess.run(["squeue", "-s", "-h", "-o", "%i %j"], env=self.env, capture_output=True, text=True)
         return [line.split() for line in r.stdout.splitlines() if line.strip()]
 
-    def stop(self):
+    def down(self):
         subprocess.run(["scancel", "--full", "--user", "root"], env=self.env, capture_output=True)
         for d in reversed(self.daemons):
             if d.poll() is None:
@@ -174,9 +173,6 @@ def pool_scene(cell, steps, srun, on_loss, out_dir):
     return path
 
 
-def pool(series):
-    return {k: v for k, v in series.items() if k.startswith(("cells/", "block/", "time", "exchange"))}
-
 
 def run(cmd, out, env, limit=300):
     with open(out + ".log", "w") as f:
@@ -184,13 +180,8 @@ def run(cmd, out, env, limit=300):
     return p
 
 
-def check(failures, ok, what):
-    log(("ok: " if ok else "FAILED: ") + what)
-    if not ok:
-        failures.append(what)
 
-
-def scenario(cluster, binaries, work, failures):
+def scenario(cluster, binaries, work):
     env = dict(cluster.env, OMP_NUM_THREADS="1")
     coupler = os.path.join(binaries, "coupler")
     subprocess.run([os.path.join(binaries, "dem_prepare_cell"), "--out", os.path.join(work, "cell"), "--count", "60",
@@ -201,16 +192,16 @@ def scenario(cluster, binaries, work, failures):
     local, srun = pool_scene(cell, 60, False, "stop", work), pool_scene(cell, 60, True, "stop", work)
     code, _ = wait(run([coupler, "run", local, "--out", os.path.join(work, "local"), "--no-progress"],
                        os.path.join(work, "local"), env), 300)
-    check(failures, code == 0, "the local run completes (exit %s)" % code)
+    CHECKS(code == 0, "the local run completes (exit %s)" % code)
     salloc = ["salloc", "--quiet", "-n", "5", "--overcommit"]
     code, _ = wait(run(salloc + [coupler, "run", srun, "--out", os.path.join(work, "srun"), "--no-progress"],
                        os.path.join(work, "srun"), env), 300)
     with open(os.path.join(work, "srun.log")) as f:
         text = f.read()
-    check(failures, code == 0 and text.count("as a job step of Slurm job") == 4,
+    CHECKS(code == 0 and text.count("as a job step of Slurm job") == 4,
           "the run with four srun workers completes, each started as a job step (exit %s)" % code)
     if code == 0:
-        check(failures, same(pool(physics(os.path.join(work, "srun"))), pool(physics(os.path.join(work, "local")))),
+        CHECKS(same(pool(physics(os.path.join(work, "srun"))), pool(physics(os.path.join(work, "local")))),
               "its pool and FEM series are identical to the bit to the local run's")
 
     # (c) the same scene submitted with the batch script coupler sbatch writes.
@@ -218,18 +209,18 @@ def scenario(cluster, binaries, work, failures):
     made = subprocess.run([coupler, "sbatch", srun, "--out", batch, "--time", "00:10:00"], env=env, capture_output=True,
                           text=True)
     script = os.path.join(batch, "gmh-pool-scale.sbatch")
-    check(failures, made.returncode == 0 and ("submit it with: sbatch " + script) in made.stdout,
+    CHECKS(made.returncode == 0 and ("submit it with: sbatch " + script) in made.stdout,
           "coupler sbatch writes the batch script (exit %s)" % made.returncode)
     if made.returncode == 0:
         submitted = subprocess.run(["sbatch", "--wait", "--quiet", script], env=env, capture_output=True, text=True,
                                    timeout=300)
         outputs = [f for f in os.listdir(batch) if f.startswith("slurm-") and f.endswith(".out")]
         text = open(os.path.join(batch, outputs[0])).read() if outputs else ""
-        check(failures, submitted.returncode == 0 and text.count("as a job step of Slurm job") == 4,
+        CHECKS(submitted.returncode == 0 and text.count("as a job step of Slurm job") == 4,
               "the batch job completes, its four workers started as job steps (exit %s%s)"
               % (submitted.returncode, "" if outputs else ", no output file"))
         if submitted.returncode == 0:
-            check(failures, same(pool(physics(batch)), pool(physics(os.path.join(work, "local")))),
+            CHECKS(same(pool(physics(batch)), pool(physics(os.path.join(work, "local")))),
                   "the batch job's pool and FEM series are identical to the bit to the local run's")
 
     # (b) a worker's step cancelled mid-run: its cells move, the run completes.
@@ -238,7 +229,7 @@ def scenario(cluster, binaries, work, failures):
     srun_move = pool_scene(cell, steps, True, "move", work)
     code, _ = wait(run([coupler, "run", local_move, "--out", os.path.join(work, "local-move"), "--no-progress"],
                        os.path.join(work, "local-move"), env), 600)
-    check(failures, code == 0, "the long local run completes (exit %s)" % code)
+    CHECKS(code == 0, "the long local run completes (exit %s)" % code)
     out = os.path.join(work, "srun-move")
     p = run(salloc + [coupler, "run", srun_move, "--out", out, "--no-progress"], out, env)
     deadline = time.time() + 120
@@ -248,22 +239,22 @@ def scenario(cluster, binaries, work, failures):
             break
         time.sleep(0.05)
     step = next((s for s, name in cluster.steps() if name == "w01"), None)
-    check(failures, step is not None, "worker w01 runs as a job step once the run is past its first checkpoint")
+    CHECKS(step is not None, "worker w01 runs as a job step once the run is past its first checkpoint")
     if step:
         subprocess.run(["scancel", step], env=cluster.env, check=True)
     code, hung = wait(p, 600)
     with open(out + ".log") as f:
         text = f.read()
-    check(failures, code == 0 and not hung, "the run goes on to its end after the step is cancelled (exit %s)" % code)
-    check(failures, "worker 'w01' lost" in text and "unit cells moved from the checkpoint" in text,
+    CHECKS(code == 0 and not hung, "the run goes on to its end after the step is cancelled (exit %s)" % code)
+    CHECKS("worker 'w01' lost" in text and "unit cells moved from the checkpoint" in text,
           "the coupler names the lost worker and moves its cells")
     if code == 0:
-        check(failures, same(pool(physics(out)), pool(physics(os.path.join(work, "local-move")))),
+        CHECKS(same(pool(physics(out)), pool(physics(os.path.join(work, "local-move")))),
               "the pool and FEM series are identical to the bit to the undisturbed local run's")
     time.sleep(1.0)
     left = cluster.steps()
-    check(failures, not left, "no job step outlives the run (%s)" % left)
-    check(failures, not run_dir_processes(out), "no process outlives the run")
+    CHECKS(not left, "no job step outlives the run (%s)" % left)
+    CHECKS(not run_dir_processes(out), "no process outlives the run")
 
 
 def main():
@@ -278,27 +269,8 @@ def main():
     if why:
         log("skipped: " + why)
         return SKIP
-    work = tempfile.mkdtemp(prefix="cosim-slurm.")
-    cluster = Cluster(os.path.join(work, "cluster"))
-    os.makedirs(cluster.root)
-    failures = []
-    try:
-        cluster.start()
-        log("one-node cluster up (%s)" % cluster.conf)
-        scenario(cluster, a.bin, work, failures)
-    except Exception as e:  # a daemon or a run that could not start: a failure, with the logs kept
-        failures.append(str(e))
-        log("FAILED: %s" % e)
-        a.keep = True
-    finally:
-        cluster.stop()
-        if a.keep or failures:
-            log("kept %s" % work)
-        else:
-            shutil.rmtree(work, ignore_errors=True)
-    log("%d check(s) failed" % len(failures) if failures else "passed")
-    return 1 if failures else 0
-
+    return in_scratch(CHECKS, "cosim-slurm.", lambda work: Cluster(os.path.join(work, "cluster")),
+                      lambda cluster, work: scenario(cluster, a.bin, work), a.keep)
 
 if __name__ == "__main__":
     sys.exit(main())
