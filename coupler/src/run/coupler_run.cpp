@@ -221,7 +221,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& a : adoptions_) pending.emplace_back(a.adopter, a.seq);
     auto replies = session_->awaitReplies(pending);
     for (std::size_t i = 0; i < replies.size(); ++i)
-      if (adoptions_[i].answersNow) adoptedAnswers_.push_back(std::move(replies[i]));
+      if (adoptions_[i].answersNow) adoptedAnswers_.emplace_back(adoptions_[i].adopter, std::move(replies[i]));
     adoptions_.clear();
   }
 
@@ -244,8 +244,10 @@ class CouplerRun final : public ExchangeDriver {
     processes_.kill(lost);  // a hung one; a dead one is reaped already
     session_->dropPeer(lost);
     lost_.insert(lost);
-    // What it was adopting moves on with its own cells (the coupling counts them as its).
+    // What it was adopting, or had adopted in this exchange, moves on with
+    // its own cells (the coupling counts them as its), answered anew.
     std::erase_if(adoptions_, [&](const InFlightAdoption& a) { return a.adopter == lost; });
+    std::erase_if(adoptedAnswers_, [&](const auto& answer) { return answer.first == lost; });
     std::size_t cells = 0;
     std::string where;
     for (const auto& a : adoptions) {
@@ -288,7 +290,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& lost : owed) {
       std::vector<proto::UnitCellResults::Reader> lists;
       std::size_t bytes = 0;
-      for (const auto& r : adoptedAnswers_) {
+      for (const auto& [adopter, r] : adoptedAnswers_) {
         if (!first) break;
         for (auto l : r.message.envelope().getBody().getCellsAdopted().getOutputs().getUnitCellResults()) lists.push_back(l);
         bytes += r.message.sizeInBytes();
@@ -957,7 +959,7 @@ class CouplerRun final : public ExchangeDriver {
     bool answersNow = false;
   };
   std::vector<InFlightAdoption> adoptions_;  // AdoptCells requests not yet answered
-  std::vector<wire::Reply> adoptedAnswers_;  // their answers to this exchange's jobs
+  std::vector<std::pair<std::string, wire::Reply>> adoptedAnswers_;  // adopter, its answers to this exchange's jobs
   std::optional<SlurmAllocation> slurm_;  // the allocation launch: srun steps start in
   ResourcePlan slurmPlan_;                // its components, as coupler sbatch asks for them
   std::string srun_;                      // srun's path
