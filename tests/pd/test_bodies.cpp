@@ -226,6 +226,15 @@ TEST(PdBodies, LatticeSizeIsCheckedBeforeAllocating) {
   key.clear();
   EXPECT_NE(bodySizeProblem(wide, 1e6, key), "");  // 1e12 bonds
   EXPECT_EQ(key, "horizon");
+
+  // A small body with a huge horizon factor: its own bonds are few (at most
+  // every other particle), but the complete lattice family the models are
+  // computed against is not.
+  auto rod = test::box("rod", "pmb", 24, 2, 2, 2.5e-3, 8.9e100);
+  key.clear();
+  msg = bodySizeProblem(rod, latticeParticleEstimate(rod), key);
+  EXPECT_NE(msg.find("complete lattice family"), std::string::npos) << msg;
+  EXPECT_EQ(key, "horizon");
 }
 
 TEST(PdBodies, EveryParticleNeedsAPartner) {

@@ -86,6 +86,10 @@ std::string particleProblem(const BodySpec& spec, double particles, double memor
   return why.str();
 }
 
+// A bond of the complete reference family (detail::fullLatticeFamily): its
+// vector, length and volume.
+constexpr double kBytesPerReferenceBond = 5.0 * sizeof(double);
+
 std::string bondProblem(const BodySpec& spec, const BodySize& size, double memory) {
   std::ostringstream why;
   why << "'horizon' " << spec.horizonFactor << " gives about " << amount(size.bonds) << " bonds for "
@@ -132,6 +136,20 @@ std::string bodySizeProblem(const BodySpec& spec, double particles, std::string&
   if (!(size.bytes <= memory)) {
     key = "horizon";
     return bondProblem(spec, size, memory);
+  }
+  // The models' micromodulus and surface correction are computed against the
+  // complete family of an unbounded lattice, whose size grows with the cube
+  // of the horizon factor whatever the body's size.
+  const double m = spec.horizonFactor + 0.5;
+  const double reference = 4.0 / 3.0 * std::numbers::pi * m * m * m;
+  if (!(reference * kBytesPerReferenceBond <= memory)) {
+    key = "horizon";
+    std::ostringstream why;
+    why << "'horizon' " << spec.horizonFactor << " gives a complete lattice family of about " << amount(reference)
+        << " bonds (" << gigabytes(reference * kBytesPerReferenceBond)
+        << "), which the models' micromodulus and surface correction are computed against: more than the "
+        << gigabytes(memory) << " of memory available; use a smaller horizon";
+    return why.str();
   }
   return {};
 }
