@@ -286,21 +286,19 @@ class CouplerRun final : public ExchangeDriver {
   /// moved twice, so who answers for whom is the pool's business; the gmh
   /// coupling checks the lost workers' jobs against these answers together).
   void standInReplies(const std::set<std::string>& owed) {
-    bool first = true;
+    std::vector<proto::UnitCellResults::Reader> answers;
+    std::size_t bytes = 0;
+    for (const auto& [adopter, r] : adoptedAnswers_) {
+      for (auto l : r.message.envelope().getBody().getCellsAdopted().getOutputs().getUnitCellResults()) answers.push_back(l);
+      bytes += r.message.sizeInBytes();
+    }
     for (const auto& lost : owed) {
-      std::vector<proto::UnitCellResults::Reader> lists;
-      std::size_t bytes = 0;
-      for (const auto& [adopter, r] : adoptedAnswers_) {
-        if (!first) break;
-        for (auto l : r.message.envelope().getBody().getCellsAdopted().getOutputs().getUnitCellResults()) lists.push_back(l);
-        bytes += r.message.sizeInBytes();
-      }
-      first = false;
-      wire::OutMessage m(256 + bytes / sizeof(capnp::word));
+      const bool first = lost == *owed.begin();
+      wire::OutMessage m(256 + (first ? bytes / sizeof(capnp::word) : 0));
       auto advanced = m.envelope().getBody().initAdvanced();
       advanced.setTime(time_);
-      auto out = advanced.initOutputs().initUnitCellResults(static_cast<unsigned>(lists.size()));
-      for (unsigned k = 0; k < lists.size(); ++k) out.setWithCaveats(k, lists[k]);
+      auto out = advanced.initOutputs().initUnitCellResults(first ? static_cast<unsigned>(answers.size()) : 0u);
+      for (unsigned k = 0; first && k < answers.size(); ++k) out.setWithCaveats(k, answers[k]);
       latest_.insert_or_assign(lost, wire::InMessage::decode(m.frames()));
       energySource_.erase(lost);
       keepViews(lost);
