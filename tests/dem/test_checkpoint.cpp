@@ -66,6 +66,16 @@ TEST(DemCheckpoint, IndicesOutOfRangeAreRefusedWithTheFileName) {
       {[](DemSystem& s) { s.meshes.at(0).candTri.push_back(0); }, "candidates rows do not match"},
       {[](DemSystem& s) { s.planeShear.at(0).pop_back(); }, "contact arrays do not match the particles"},
       {[](DemSystem& s) { s.time = std::nan(""); }, "non-finite time"},
+      // The periodic pair loop reads one image per pair (a fuzzed checkpoint
+      // whose cell was periodic without them read through a null pointer).
+      {[](DemSystem& s) {
+         s.cell.enabled = true;
+         s.cell.h = {0.02, 0, 0, 0, 0.02, 0, 0, 0, 0.02};
+         s.neighbors.image.clear();
+       },
+       "periodic images do not match the neighbour list"},
+      {[](DemSystem& s) { s.neighbors.image.assign(s.neighbors.partner.size(), {0, 0, 0}); },
+       "periodic images without a periodic cell"},
   };
   for (const auto& [corrupt, expected] : cases) {
     const std::string message = restoreError(corrupt);

@@ -165,7 +165,9 @@ void checkRestored(const DemSystem& s, const std::string& path) {
   requireBelow(nl.partner, n, path, "neighbour partner");
   require(nl.shear.size() == pairs && nl.touching.size() == pairs && s.pairForce.size() == pairs, path,
           "pair arrays do not match the neighbour list");
-  require(nl.image.empty() || nl.image.size() == pairs, path, "periodic images do not match the neighbour list");
+  // The pair loop reads one image per pair in a periodic cell, none otherwise.
+  require(nl.image.size() == (s.cell.enabled ? pairs : 0), path,
+          s.cell.enabled ? "periodic images do not match the neighbour list" : "periodic images without a periodic cell");
   requireRows(nl.revStart, n, nl.revPair.size(), false, path, "reverse neighbour list");
   requireBelow(nl.revPair, pairs, path, "reverse neighbour pair");
   require(nl.xRef.size() == n, path, "reference positions do not match the particles");
