@@ -44,12 +44,14 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from kill_resume import children, physics, run_dir_processes, same, wait  # noqa: E402
 
 
-def scene(cell, cells, workers, steps, on_loss="stop"):
-    """A ny x nx x 1 block of one-point elements (one cell each) under axial compression."""
+def scene(cell, cells, workers, steps, on_loss="stop", as_pool=False):
+    """A ny x nx x 1 block of one-point elements (one cell each) under axial compression.
+    The workers are declared one by one (w00, w01, ...), or with as_pool as one
+    entry `cells` with pool: {workers} (cells-0, cells-1, ...): the same cells each."""
     nx = max(1, int(math.sqrt(cells / 2.0)))
     ny = cells // nx
     assert nx * ny == cells, "cells must factor as nx x 2nx-ish: choose e.g. 8, 50, 200, 512, 800"
-    names = ["w%02d" % k for k in range(workers)]
+    names = ["cells"] if as_pool else ["w%02d" % k for k in range(workers)]
     lines = [
         "scene: gmh-pool-scale",
         "schedule: {kind: multirate, fine: [%s], dt: 2.0e-5, ratio: 1, order: coarse-first, coarse_steps: %d}"
@@ -72,11 +74,14 @@ def scene(cell, cells, workers, steps, on_loss="stop"):
         "        - {set: top, dofs: [z], value: -1.0e-3, kind: velocity}",
         "      integrator: {type: central-difference}",
     ]
-    for k, name in enumerate(names):
-        count = len(range(k, cells, workers))
-        lines += ["  - name: %s" % name, "    kind: dem", "    params:",
-                  "      unit_cells: {file: %s, first_id: %d, count: %d, stride: %d, load_steps: 20}"
-                  % (cell, k, count, workers)]
+    if as_pool:
+        lines += ["  - name: cells", "    kind: dem", "    pool: {workers: %d}" % workers, "    params:",
+                  "      unit_cells: {file: %s, count: %d, load_steps: 20}" % (cell, cells)]
+    else:
+        for k, name in enumerate(names):
+            lines += ["  - name: %s" % name, "    kind: dem", "    params:",
+                      "      unit_cells: {file: %s, first_id: %d, count: %d, stride: %d, load_steps: 20}"
+                      % (cell, k, len(range(k, cells, workers)), workers)]
     lines += ["couplings:", "  - {name: cells, kind: gmh, fem: block, workers: [%s], on_worker_loss: %s}"
               % (", ".join(names), on_loss),
               "output:", "  checkpoint_interval: 10"]

@@ -10,8 +10,8 @@ using Data = import "data.capnp";
 using Gmh = import "gmh.capnp";
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 3;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt;
-                                  # 3: adoptCells, cellsAdopted
+const protocolMinor :UInt16 = 4;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt;
+                                  # 3: adoptCells, cellsAdopted; 4: Setup.pool
 
 struct Envelope {
   seq @0 :UInt64;          # sender's sequence number (requests and replies)
@@ -65,6 +65,16 @@ struct Setup {
   resuming @5 :Bool;         # a restore follows: keep the output files in runDir, write no setup snapshot
   sceneDir @6 :Text;         # relative paths in the scene resolve here: the user's scene file's directory
                              # (with --set, sceneFile is the effective scene in the run directory)
+  pool @7 :PoolMember;       # set for a worker of a pool entry (solvers[i].pool; capability pool-member)
+}
+
+# One worker of a scene entry that declares `pool: {workers: N}`: its params
+# are the entry's, and the solver takes its own share of them (a GMH worker:
+# the cells of ids first_id + (index + k N) stride).
+struct PoolMember {
+  entry @0 :Text;            # the entry's name, whose params apply
+  index @1 :UInt32;          # 0 .. size-1
+  size @2 :UInt32;           # the pool's worker count; 0: not a pool member
 }
 
 struct SetupDone {

@@ -58,8 +58,19 @@ std::string hostName() {
 namespace {
 // What a setup message tells the solver (the run's setup and --check read it alike).
 SetupContext setupContext(proto::Setup::Reader s) {
-  return {s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
-          s.getSceneDir()};
+  SetupContext c{s.getSceneFile(), s.getSceneYaml(), s.getInstance(), s.getRunDir(), s.getInputs(), s.getResuming(),
+                 s.getSceneDir()};
+  if (s.hasPool() && s.getPool().getSize() > 0) {
+    const auto pool = s.getPool();
+    if (pool.getIndex() >= pool.getSize())
+      throw SolverError(proto::Error::Code::BAD_INPUT, "setup: pool worker index " + std::to_string(pool.getIndex()) +
+                                                           " is not below the pool's size " +
+                                                           std::to_string(pool.getSize()));
+    c.poolEntry = pool.getEntry();
+    c.poolIndex = pool.getIndex();
+    c.poolSize = pool.getSize();
+  }
+  return c;
 }
 }  // namespace
 
@@ -397,10 +408,9 @@ int checkSetup(Solver& solver, const std::string& file) {
   if (!body.isSetup()) throw MalformedMessage("'" + file + "' holds no setup message");
   const auto s = body.getSetup();
   log::setPrefix(s.getInstance());
-  const SetupContext ctx = setupContext(s);
   capnp::MallocMessageBuilder scratch;
   try {
-    solver.setup(ctx, scratch.initRoot<proto::CouplingData>());
+    solver.setup(setupContext(s), scratch.initRoot<proto::CouplingData>());
   } catch (const SolverError& e) {
     std::cerr << e.what() << "\n";
     return 2;

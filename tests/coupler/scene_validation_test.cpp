@@ -333,6 +333,51 @@ TEST(SlurmLaunch, ThePlanGroupsTheStepsIntoComponentsAndTheBatchScriptAsksForThe
   EXPECT_NE(script.find("--out '" + fs::absolute("runs/pool").string() + "' --no-progress"), std::string::npos) << script;
 }
 
+TEST(SlurmLaunch, APoolEntryStandsForItsWorkersEachPlacedOnItsNode) {
+  TempDir dir;
+  const auto path = dir.write("pool.yaml",
+                              "scene: pool\n"
+                              "schedule: {kind: multirate, fine: [cells], dt: 1.0e-3, ratio: 1, coarse_steps: 2}\n"
+                              "solvers:\n"
+                              "  - {name: block, kind: mock}\n"
+                              "  - name: cells\n"
+                              "    kind: dem\n"
+                              "    binary: /bin/true\n"
+                              "    launch: srun\n"
+                              "    pool: {workers: 5, workers_per_node: 2}\n"
+                              "couplings:\n"
+                              "  - {name: cells, kind: gmh, fem: block, workers: [cells]}\n");
+  const Scene scene = loadScene(path);
+  ASSERT_EQ(scene.solvers.size(), 6u);
+  for (int k = 0; k < 5; ++k) {
+    const auto& w = scene.solvers[static_cast<std::size_t>(k) + 1];
+    EXPECT_EQ(w.name, "cells-" + std::to_string(k));
+    EXPECT_EQ(w.poolEntry, "cells");
+    EXPECT_EQ(w.poolIndex, k);
+    EXPECT_EQ(w.poolSize, 5);
+  }
+  const auto parts = scene.couplings.at(0)->participants();
+  EXPECT_EQ(std::count_if(parts.begin(), parts.end(), [](const std::string& p) { return p.rfind("cells-", 0) == 0; }), 5);
+  const auto caps = scene.requiredCapabilities("cells-3");
+  EXPECT_NE(std::find(caps.begin(), caps.end(), "pool-member"), caps.end());
+  // Worker k on node k / 2 of its component: cells-3 on the second.
+  const auto args = cosim::coupler::srunArguments(scene.solvers[4], {});
+  EXPECT_NE(std::find(args.begin(), args.end(), "--relative=1"), args.end());
+  const auto plan = cosim::coupler::planResources(scene);
+  ASSERT_EQ(plan.components.size(), 2u);
+  EXPECT_EQ(plan.components[1].tasks, 5);
+  EXPECT_EQ(plan.components[1].nodes, 3);
+  std::ostringstream described;
+  cosim::coupler::describeResources(scene, described);
+  EXPECT_NE(described.str().find("pool cells: 5 workers (cells-0 .. cells-4), 2 per node on 3 node(s)"), std::string::npos)
+      << described.str();
+  const auto alike = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "", "", false});
+  EXPECT_NE(alike.find("#SBATCH --nodes=3 --ntasks-per-node=2 --ntasks=6 --cpus-per-task=2\n"), std::string::npos) << alike;
+  const auto het = cosim::coupler::sbatchScript(scene, "/opt/cosim/coupler", {"runs/pool", "", "", true});
+  EXPECT_NE(het.find("#SBATCH hetjob\n#SBATCH --nodes=3 --ntasks-per-node=2 --ntasks=5 --cpus-per-task=1\n"),
+            std::string::npos) << het;
+}
+
 TEST(GoodScene, AutoTimeStepResolvesFromTheCriticalStep) {
   TempDir dir;
   const auto path = dir.write("auto.yaml",

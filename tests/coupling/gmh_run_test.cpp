@@ -486,6 +486,41 @@ nlohmann::json reportOf(const fs::path& runDir) {
   return nlohmann::json::parse(in);
 }
 
+TEST_F(GmhRun, APoolEntryRunsItsWorkersAsTheSameWorkersDeclaredOneByOne) {
+  // Four cells: cells_a holds 0-1 and cells_b 2-3; the pool entry's two
+  // workers cells-0 and cells-1 hold 0, 2 and 1, 3. Each cell's results are
+  // its own, gathered in FEM's order: the series are the same to the bit.
+  const std::string path = scene(40, "2", "", 4);
+  std::string text;
+  {
+    std::ifstream in(path);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  const auto explicitRun = run({binary("coupler"), "run", path, "--out", (dir_ / "explicit").string(), "--no-progress"}, 120.0);
+  ASSERT_EQ(explicitRun.code, 0) << explicitRun.out << explicitRun.err;
+  replace("fine: [cells_a, cells_b]", "fine: [cells]");
+  replace("workers: [cells_a, cells_b]", "workers: [cells]");
+  const auto first = text.find("  - name: cells_a"), end = text.find("couplings:");
+  text.replace(first, end - first,
+               "  - name: cells\n    kind: dem\n    pool: {workers: 2}\n    params:\n      unit_cells: {file: " +
+                   (cellDir_ / "cell.ckpt").string() + ", count: 4, max_steps: 20000, load_steps: 20}\n");
+  std::ofstream(dir_ / "pool.yaml") << text;
+  const auto pooled =
+      run({binary("coupler"), "run", (dir_ / "pool.yaml").string(), "--out", (dir_ / "pool").string(), "--no-progress"}, 120.0);
+  ASSERT_EQ(pooled.code, 0) << pooled.out << pooled.err;
+  expectSamePoolSeries(dir_ / "explicit", dir_ / "pool");
+  EXPECT_EQ(reportOf(dir_ / "pool")["figures"]["answered_cell_jobs"], reportOf(dir_ / "explicit")["figures"]["answered_cell_jobs"]);
+  // Each worker set up its own share of the entry's cells.
+  const auto check = run({binary("coupler"), "check", (dir_ / "pool.yaml").string()}, 60.0);
+  EXPECT_EQ(check.code, 0) << check.out << check.err;
+  EXPECT_NE((check.out + check.err).find("cells-1"), std::string::npos) << check.out << check.err;
+}
+
 TEST_F(GmhRun, ALostWorkersCellsMoveToTheOtherAndTheResultsStayTheSame) {
   // Four cells on two workers, a checkpoint every 10 exchanges; cells_b is
   // SIGKILLed once the run is past its first checkpoint. Its two cells move

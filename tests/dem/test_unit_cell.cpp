@@ -427,6 +427,40 @@ TEST_F(DemUnitCell, StrideInterleavesTheCellsOfTwoWorkers) {
   }
 }
 
+/// Sets up `s` as worker `index` of a pool of `size` workers of entry "cells" in `yaml`.
+void setupPoolWorker(DemSolver& s, const std::string& yaml, std::uint32_t index, std::uint32_t size) {
+  capnp::MallocMessageBuilder in, out;
+  wire::SetupContext c{"cells.yaml", yaml, "cells-" + std::to_string(index), "", in.initRoot<proto::CouplingData>().asReader()};
+  c.poolEntry = "cells";
+  c.poolIndex = index;
+  c.poolSize = size;
+  s.setup(c, out.initRoot<proto::CouplingData>());
+}
+
+TEST_F(DemUnitCell, APoolsWorkersShareTheEntrysCellsEachOnce) {
+  // The entry's 7 cells 1, 3, .., 13 (first_id 1, stride 2) over 3 workers:
+  // worker k takes the entry's cells k, k + 3, k + 6.
+  const std::string file = (dir_ / "cell.ckpt").string();
+  const std::string yaml = "scene: {name: t}\nsolvers:\n  - name: cells\n    kind: dem\n    pool: {workers: 3}\n"
+                           "    params:\n      unit_cells: {file: " + file + ", count: 7, first_id: 1, stride: 2, "
+                           "weakened: {file: " + file + ", ids: [11]}}\n";
+  const std::vector<std::vector<std::uint32_t>> expected{{1, 7, 13}, {3, 9}, {5, 11}};
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    DemSolver w;
+    setupPoolWorker(w, yaml, k, 3);
+    EXPECT_EQ(w.unitCells()->ids(), expected[k]) << "worker " << k;
+  }
+  // More workers than cells: refused, naming the count.
+  DemSolver refused;
+  try {
+    setupPoolWorker(refused, yaml, 0, 8);
+    ADD_FAILURE() << "8 workers for 7 cells accepted";
+  } catch (const wire::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("unit_cells.count: the pool's 8 workers share 7 cells"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(DemUnitCell, WorkerWithTwoCellsRestoresBitForBit) {
   const std::string yaml = workerScene((dir_ / "cell.ckpt").string(), ", max_steps: 50000");
   DemSolver a;

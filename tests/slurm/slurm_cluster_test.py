@@ -1,16 +1,22 @@
 #!/usr/bin/python3
 """A GMH worker pool started by a real Slurm (docs/cluster.md).
 
-Brings up a one-node cluster on this machine: installs Debian's slurm-wlm and
+Brings up a two-node cluster on this machine: installs Debian's slurm-wlm and
 munge when they are missing, writes a cluster configuration into a scratch
 directory (its own munge socket and key, its own ports), starts munged,
-slurmctld and slurmd, and then:
+slurmctld and one slurmd per node (n1, n2), and then:
 
-  (a) runs a GMH scene whose four workers are `launch: srun` job steps, inside
-      salloc, and checks its pool and FEM series identical to the bit to the
-      same scene with the workers spawned locally;
+  (a) runs a GMH scene whose four workers, one pool entry (`pool: {workers:
+      4, workers_per_node: 2}`), are `launch: srun` job steps, inside an
+      salloc of both nodes, checks that the first two run on n1 and the
+      others on n2, and that its pool and FEM series are identical to the bit
+      to the same scene with the workers declared one by one and spawned
+      locally;
   (c) submits it with the batch script `coupler sbatch` writes (sbatch
       --wait) and checks the same series;
+  (d) submits it (workers_per_node: 4) with the heterogeneous script
+      `coupler sbatch --heterogeneous` writes: the coupler's component on one
+      node, the pool's on the other, where all four workers run; same series;
   (b) runs it again with `on_worker_loss: move`, cancels one worker's job step
       (scancel JOB.STEP) once the run is past its first checkpoint, and checks
       that the coupler named the lost worker, moved its cells, completed the
@@ -71,7 +77,13 @@ def free_port():
 
 
 class Cluster:
-    """munged, slurmctld and slurmd of a one-node cluster, all under `root`."""
+    """munged, slurmctld and the slurmd of two nodes, n1 and n2, all on this
+    host under `root`: each slurmd has its own port and spool (`slurmd -N`),
+    so an allocation can span two nodes and a heterogeneous job can put its
+    components on different nodes (the backfill scheduler, which schedules
+    heterogeneous jobs, reserves whole nodes for a pending component)."""
+
+    NODES = ("n1", "n2")
 
     def __init__(self, root):
         self.root = root
@@ -81,7 +93,7 @@ class Cluster:
 
     def write(self):
         host = socket.gethostname()
-        for d in ("state", "spool", "log", "munge"):
+        for d in ("state", "log", "munge") + tuple("spool/" + n for n in self.NODES):
             os.makedirs(os.path.join(self.root, d), exist_ok=True)
         os.chmod(os.path.join(self.root, "munge"), 0o700)
         self.key = os.path.join(self.root, "munge", "munge.key")
@@ -89,27 +101,29 @@ class Cluster:
             f.write(os.urandom(1024))
         os.chmod(self.key, 0o400)
         self.socket = os.path.join(self.root, "munge", "munge.socket")
-        cpus = max(16, os.cpu_count() or 2)
         lines = {
             "ClusterName": "cosimtest", "SlurmctldHost": host, "SlurmUser": "root", "SlurmdUser": "root",
             "AuthType": "auth/munge", "CredType": "cred/munge", "AuthInfo": "socket=" + self.socket,
-            "StateSaveLocation": self.path("state"), "SlurmdSpoolDir": self.path("spool"),
-            "SlurmctldPidFile": self.path("slurmctld.pid"), "SlurmdPidFile": self.path("slurmd.pid"),
-            "SlurmctldLogFile": self.path("log/slurmctld.log"), "SlurmdLogFile": self.path("log/slurmd.log"),
-            "SlurmctldPort": str(free_port()), "SlurmdPort": str(free_port()),
+            "StateSaveLocation": self.path("state"), "SlurmdSpoolDir": self.path("spool/%n"),
+            "SlurmctldPidFile": self.path("slurmctld.pid"), "SlurmdPidFile": self.path("slurmd-%n.pid"),
+            "SlurmctldLogFile": self.path("log/slurmctld.log"), "SlurmdLogFile": self.path("log/slurmd-%n.log"),
+            "SlurmctldPort": str(free_port()),
             # No cgroups: process tracking through /proc, no task containment.
             "ProctrackType": "proctrack/linuxproc", "TaskPlugin": "task/none", "MpiDefault": "none",
-            "SelectType": "select/cons_tres", "SelectTypeParameters": "CR_CPU", "SchedulerType": "sched/builtin",
+            "SelectType": "select/cons_tres", "SelectTypeParameters": "CR_CPU",
+            "SchedulerType": "sched/backfill", "SchedulerParameters": "bf_interval=1",
             "ReturnToService": "2", "JobAcctGatherType": "jobacct_gather/none",
-            # The node offers more cores than the machine has, so a batch job's
-            # components fit beside each other whatever this machine's size.
+            # The nodes offer more cores than the machine has, so a job's
+            # tasks fit whatever this machine's size.
             "SlurmdParameters": "config_overrides",
             "AccountingStorageType": "accounting_storage/none",
         }
         with open(self.conf, "w") as f:
             for k, v in lines.items():
                 f.write("%s=%s\n" % (k, v))
-            f.write("NodeName=%s CPUs=%d RealMemory=4000 State=UNKNOWN\n" % (host, cpus))
+            for node in self.NODES:
+                f.write("NodeName=%s NodeHostname=%s NodeAddr=127.0.0.1 Port=%d CPUs=8 RealMemory=2000 State=UNKNOWN\n"
+                        % (node, host, free_port()))
             f.write("PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP OverSubscribe=FORCE:64\n")
 
     def path(self, name):
@@ -119,19 +133,20 @@ class Cluster:
         os.makedirs(self.root, exist_ok=True)
         self.write()
         munged = shutil.which("munged") or "/usr/sbin/munged"
-        self.spawn([munged, "--foreground", "--force", "--socket=" + self.socket, "--key-file=" + self.key,
-                    "--pid-file=" + self.path("munge/munged.pid"), "--log-file=" + self.path("log/munged.log"),
-                    "--seed-file=" + self.path("munge/munged.seed")])
+        self.spawn("munged", [munged, "--foreground", "--force", "--socket=" + self.socket, "--key-file=" + self.key,
+                              "--pid-file=" + self.path("munge/munged.pid"), "--log-file=" + self.path("log/munged.log"),
+                              "--seed-file=" + self.path("munge/munged.seed")])
         self.until(lambda: os.path.exists(self.socket), "munged's socket")
-        for daemon in ("slurmctld", "slurmd"):
-            exe = shutil.which(daemon) or "/usr/sbin/" + daemon
-            self.spawn([exe, "-D", "-f", self.conf])
-        self.until(lambda: "idle" in subprocess.run(["sinfo", "-h", "-o", "%T"], env=self.env, capture_output=True,
-                                                   text=True).stdout, "the node to be idle")
-        log("one-node cluster up (%s)" % self.conf)
+        self.spawn("slurmctld", [shutil.which("slurmctld") or "/usr/sbin/slurmctld", "-D", "-f", self.conf])
+        for node in self.NODES:
+            self.spawn("slurmd-" + node, [shutil.which("slurmd") or "/usr/sbin/slurmd", "-D", "-f", self.conf, "-N", node])
+        self.until(lambda: subprocess.run(["sinfo", "-h", "-o", "%T %D"], env=self.env, capture_output=True,
+                                          text=True).stdout.split() == ["idle", str(len(self.NODES))],
+                   "both nodes to be idle")
+        log("two-node cluster up (%s)" % self.conf)
 
-    def spawn(self, cmd):
-        out = open(self.path("log/" + os.path.basename(cmd[0]) + ".out"), "w")
+    def spawn(self, name, cmd):
+        out = open(self.path("log/" + name + ".out"), "w")
         self.daemons.append(subprocess.Popen(as_root(cmd), stdout=out, stderr=subprocess.STDOUT, env=self.env,
                                              start_new_session=True))
 
@@ -146,7 +161,8 @@ class Cluster:
         raise RuntimeError("no %s within %d s; see %s" % (what, limit, self.path("log")))
 
     def steps(self):
-        r = subprocess.run(["squeue", "-s", "-h", "-o", "%i %j"], env=self.env, capture_output=True, text=True)
+        """[step id, name, node] of every running job step."""
+        r = subprocess.run(["squeue", "-s", "-h", "-o", "%i %j %N"], env=self.env, capture_output=True, text=True)
         return [line.split() for line in r.stdout.splitlines() if line.strip()]
 
     def down(self):
@@ -162,12 +178,27 @@ class Cluster:
                 d.wait()
 
 
-def pool_scene(cell, steps, srun, on_loss, out_dir):
-    text = scene(cell, 8, 4, steps, on_loss)
+def nodes_of_steps(cluster, process, names):
+    """The node of each named job step, watched while `process` runs."""
+    seen = {}
+    while process.poll() is None and len(seen) < len(names):
+        for step in cluster.steps():
+            if len(step) == 3 and step[1] in names:
+                seen[step[1]] = step[2]
+        time.sleep(0.05)
+    return seen
+
+
+def pool_scene(cell, steps, srun, on_loss, out_dir, per_node=None):
+    """The pool scene, its four workers spawned here or srun job steps; with
+    per_node one entry `cells` (cells-0 .. cells-3), workers_per_node: per_node."""
+    text = scene(cell, 8, 4, steps, on_loss, as_pool=per_node is not None)
     text = text.replace("heartbeat_timeout: 20", "heartbeat_timeout: 5")
     if srun:
         text = text.replace("    kind: dem\n", "    kind: dem\n    launch: srun\n    resources: {cpus_per_task: 1, overlap: true}\n")
-    path = os.path.join(out_dir, "%s-%s.yaml" % ("srun" if srun else "local", on_loss))
+        text = text.replace("pool: {workers: 4}", "pool: {workers: 4, workers_per_node: %s}" % per_node)
+    path = os.path.join(out_dir, "%s-%s%s.yaml" % ("srun" if srun else "local", on_loss,
+                                                   "-pool%s" % per_node if per_node else ""))
     with open(path, "w") as f:
         f.write(text)
     return path
@@ -188,40 +219,58 @@ def scenario(cluster, binaries, work):
                     "--seed", "3"], check=True, stdout=subprocess.DEVNULL, env=env)
     cell = os.path.join(work, "cell.ckpt")
 
-    # (a) srun workers against local ones.
-    local, srun = pool_scene(cell, 60, False, "stop", work), pool_scene(cell, 60, True, "stop", work)
+    # (a) srun workers against local ones: one pool entry of four workers,
+    # two per node, in an allocation of both nodes; the local ones declared
+    # one by one.
+    local = pool_scene(cell, 60, False, "stop", work)
     code, _ = wait(run([coupler, "run", local, "--out", os.path.join(work, "local"), "--no-progress"],
                        os.path.join(work, "local"), env), 300)
     CHECKS(code == 0, "the local run completes (exit %s)" % code)
-    salloc = ["salloc", "--quiet", "-n", "5", "--overcommit"]
-    code, _ = wait(run(salloc + [coupler, "run", srun, "--out", os.path.join(work, "srun"), "--no-progress"],
-                       os.path.join(work, "srun"), env), 300)
+    workers = ["cells-%d" % k for k in range(4)]
+    srun = pool_scene(cell, 60, True, "stop", work, per_node=2)
+    p = run(["salloc", "--quiet", "-N", "2", "-n", "5", "--overcommit", coupler, "run", srun, "--out",
+             os.path.join(work, "srun"), "--no-progress"], os.path.join(work, "srun"), env)
+    placed = nodes_of_steps(cluster, p, workers)
+    code, _ = wait(p, 300)
     with open(os.path.join(work, "srun.log")) as f:
         text = f.read()
     CHECKS(code == 0 and text.count("as a job step of Slurm job") == 4,
           "the run with four srun workers completes, each started as a job step (exit %s)" % code)
+    CHECKS(placed == {"cells-0": "n1", "cells-1": "n1", "cells-2": "n2", "cells-3": "n2"},
+          "workers_per_node: 2 puts cells-0, cells-1 on the first node and cells-2, cells-3 on the second (%s)" % placed)
     if code == 0:
         CHECKS(same(pool(physics(os.path.join(work, "srun"))), pool(physics(os.path.join(work, "local")))),
               "its pool and FEM series are identical to the bit to the local run's")
 
-    # (c) the same scene submitted with the batch script coupler sbatch writes.
-    batch = os.path.join(work, "batch")
-    made = subprocess.run([coupler, "sbatch", srun, "--out", batch, "--time", "00:10:00"], env=env, capture_output=True,
-                          text=True)
-    script = os.path.join(batch, "gmh-pool-scale.sbatch")
-    CHECKS(made.returncode == 0 and ("submit it with: sbatch " + script) in made.stdout,
-          "coupler sbatch writes the batch script (exit %s)" % made.returncode)
-    if made.returncode == 0:
-        submitted = subprocess.run(["sbatch", "--wait", "--quiet", script], env=env, capture_output=True, text=True,
-                                   timeout=300)
+    # (c) the same scene submitted with the batch script coupler sbatch writes,
+    # and (d) as a heterogeneous job: the coupler's component on one node, the
+    # pool's (workers_per_node: 4) on the other.
+    for form, scene_file, extra, where in (
+            ("batch", srun, [], None),
+            ("heterogeneous", pool_scene(cell, 60, True, "stop", work, per_node=4), ["--heterogeneous"], "n2")):
+        batch = os.path.join(work, form)
+        made = subprocess.run([coupler, "sbatch", scene_file, "--out", batch, "--time", "00:10:00"] + extra, env=env,
+                              capture_output=True, text=True)
+        script = os.path.join(batch, "gmh-pool-scale.sbatch")
+        CHECKS(made.returncode == 0 and ("submit it with: sbatch " + script) in made.stdout,
+              "coupler sbatch%s writes the batch script (exit %s)" % ("".join(" " + e for e in extra), made.returncode))
+        if made.returncode != 0:
+            continue
+        submitted = subprocess.Popen(["sbatch", "--wait", "--quiet", script], env=env, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        placed = nodes_of_steps(cluster, submitted, workers)
+        code, hung = wait(submitted, 300)
         outputs = [f for f in os.listdir(batch) if f.startswith("slurm-") and f.endswith(".out")]
-        text = open(os.path.join(batch, outputs[0])).read() if outputs else ""
-        CHECKS(submitted.returncode == 0 and text.count("as a job step of Slurm job") == 4,
-              "the batch job completes, its four workers started as job steps (exit %s%s)"
-              % (submitted.returncode, "" if outputs else ", no output file"))
-        if submitted.returncode == 0:
+        text = "".join(open(os.path.join(batch, f)).read() for f in outputs)
+        CHECKS(code == 0 and text.count("as a job step of Slurm job") == 4,
+              "the %s job completes, its four workers started as job steps (exit %s%s)"
+              % (form, code, "" if outputs else ", no output file"))
+        if where:
+            CHECKS(set(placed.values()) == {where} and len(placed) == 4,
+                  "its workers run in the pool's component, on %s (%s)" % (where, placed))
+        if code == 0:
             CHECKS(same(pool(physics(batch)), pool(physics(os.path.join(work, "local")))),
-                  "the batch job's pool and FEM series are identical to the bit to the local run's")
+                  "the %s job's pool and FEM series are identical to the bit to the local run's" % form)
 
     # (b) a worker's step cancelled mid-run: its cells move, the run completes.
     steps = 1500
@@ -231,14 +280,15 @@ def scenario(cluster, binaries, work):
                        os.path.join(work, "local-move"), env), 600)
     CHECKS(code == 0, "the long local run completes (exit %s)" % code)
     out = os.path.join(work, "srun-move")
-    p = run(salloc + [coupler, "run", srun_move, "--out", out, "--no-progress"], out, env)
+    p = run(["salloc", "--quiet", "-n", "5", "--overcommit", coupler, "run", srun_move, "--out", out, "--no-progress"],
+            out, env)
     deadline = time.time() + 120
     while time.time() < deadline and p.poll() is None:
         if os.path.isdir(os.path.join(out, "checkpoints")) and any(
                 d.startswith("exchange-") for d in os.listdir(os.path.join(out, "checkpoints"))):
             break
         time.sleep(0.05)
-    step = next((s for s, name in cluster.steps() if name == "w01"), None)
+    step = next((s[0] for s in cluster.steps() if s[1] == "w01"), None)
     CHECKS(step is not None, "worker w01 runs as a job step once the run is past its first checkpoint")
     if step:
         subprocess.run(["scancel", step], env=cluster.env, check=True)

@@ -88,6 +88,36 @@ void readResources(MapReader& parent, SlurmResources& r) {
   m.finish();
 }
 
+/// `pool: {workers, workers_per_node}`: the entry stands for `workers` solvers of its kind.
+void readPool(MapReader& parent, SolverSpec& s) {
+  MapReader m(parent.node("pool"), parent.keyPath("pool"), parent.diagnostics());
+  if (!m.valid()) return;
+  if (!m.has("workers")) m.error("workers", "missing: how many workers the pool starts");
+  s.poolSize = static_cast<int>(m.optionalInteger("workers", 1, 10000).value_or(0));
+  if (m.has("workers_per_node")) {
+    if (s.launch != SolverSpec::Launch::srun)
+      m.error("workers_per_node", "places job steps on nodes: applies to launch: srun only");
+    else s.workersPerNode = static_cast<int>(m.integer("workers_per_node", 1, 1, 100000));
+  }
+  m.finish();
+  if (!s.kind.empty() && s.kind != "dem")
+    parent.error("pool", "a pool's workers are dem_solver unit-cell workers (kind: dem, params.unit_cells), not '" +
+                             s.kind + "'");
+}
+
+/// A pool entry's workers: `<entry>-0` .. `<entry>-<N-1>`, each with the entry's settings.
+void addPoolWorkers(MapReader& m, const SolverSpec& entry, Scene& scene, std::set<std::string>& names) {
+  for (int k = 0; k < entry.poolSize; ++k) {
+    SolverSpec w = entry;
+    w.name = entry.name + "-" + std::to_string(k);
+    w.poolEntry = entry.name;
+    w.poolIndex = k;
+    if (!names.insert(w.name).second)
+      m.error("pool", "its worker '" + w.name + "' has the name of a solver already declared");
+    scene.solvers.push_back(std::move(w));
+  }
+}
+
 void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::set<std::string>& names) {
   SolverSpec s;
   s.line = m.mark().line + 1;
@@ -106,6 +136,7 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
     if (s.launch != SolverSpec::Launch::srun) m.error("resources", "applies to launch: srun (a Slurm job step) only");
     else readResources(m, s.resources);
   }
+  if (m.has("pool")) readPool(m, s);
   s.args = m.stringList("args");
   s.extraCapabilities = m.stringList("requires");
   m.node("params");  // the solver's own section: the solver validates it at setup
@@ -125,7 +156,8 @@ void readSolver(MapReader& m, const std::string& sceneDir, Scene& scene, std::se
                                               "the coupler's directory and $PATH)");
   }
   m.finish();
-  scene.solvers.push_back(std::move(s));
+  if (s.poolSize > 0) addPoolWorkers(m, s, scene, names);
+  else scene.solvers.push_back(std::move(s));
 }
 
 void readSolvers(MapReader& root, const std::string& sceneDir, Scene& scene) {
@@ -300,6 +332,22 @@ std::string findExecutable(const std::string& name, const std::string& sceneDir)
   return {};
 }
 
+std::vector<std::string> solversNamed(const std::string& name, const std::vector<SolverSpec>& solvers) {
+  std::vector<std::string> named;
+  for (const auto& s : solvers)
+    if (s.name == name || (s.poolSize > 0 && s.poolEntry == name)) named.push_back(s.name);
+  return named;
+}
+
+std::string declaredSolverNames(const std::vector<SolverSpec>& solvers) {
+  std::string names;
+  for (const auto& s : solvers) {
+    if (s.poolSize > 0 && s.poolIndex > 0) continue;
+    names += (names.empty() ? "" : ", ") + (s.poolSize > 0 ? s.poolEntry + " (a pool of " + std::to_string(s.poolSize) + ")" : s.name);
+  }
+  return names;
+}
+
 const SolverSpec* Scene::solver(const std::string& n) const {
   for (const auto& s : solvers)
     if (s.name == n) return &s;
@@ -320,7 +368,10 @@ std::vector<std::string> Scene::requiredCapabilities(const std::string& solverNa
   }
   if (reference)
     for (const auto& cap : reference->requiredCapabilities(solverName)) caps.insert(cap);
-  if (const auto* s = solver(solverName)) caps.insert(s->extraCapabilities.begin(), s->extraCapabilities.end());
+  if (const auto* s = solver(solverName)) {
+    caps.insert(s->extraCapabilities.begin(), s->extraCapabilities.end());
+    if (s->poolSize > 0) caps.insert("pool-member");
+  }
   return {caps.begin(), caps.end()};
 }
 

@@ -66,12 +66,15 @@ class GmhCoupling final : public Coupling {
   GmhCoupling(const std::string& name, config::MapReader& m, const std::vector<SolverSpec>& solvers) : Coupling(name) {
     fem_ = requireSolverName(m, "fem", solvers);
     const bool given = m.has("workers");
-    for (const auto& w : m.stringList("workers")) {
-      bool declared = false;
-      for (const auto& s : solvers) declared = declared || s.name == w;
-      if (!declared) m.error("workers", "'" + w + "' is not a solver declared under solvers");
-      if (w == fem_) m.error("workers", "'" + w + "' is the FEM solver");
-      workers_.push_back(w);
+    std::set<std::string> listedOnce;
+    for (const auto& listed : m.stringList("workers")) {
+      const auto named = solversNamed(listed, solvers);  // a pool entry stands for its workers
+      if (named.empty()) m.error("workers", "'" + listed + "' is not a solver declared under solvers");
+      for (const auto& w : named) {
+        if (w == fem_) m.error("workers", "'" + w + "' is the FEM solver");
+        else if (!listedOnce.insert(w).second) m.error("workers", "'" + w + "' is listed twice");
+        else workers_.push_back(w);
+      }
     }
     if (workers_.empty()) m.error("workers", given ? "is empty" : "missing: the dem_solver workers that hold the unit cells");
     moveOnLoss_ = m.choice("on_worker_loss", {"stop", "move"}, "stop") == "move";

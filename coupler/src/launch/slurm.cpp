@@ -52,12 +52,23 @@ std::optional<SlurmAllocation> currentSlurmAllocation() {
   return a;
 }
 
+int slurmNodesOf(const SlurmAllocation& allocation, int hetGroup) {
+  if (hetGroup >= 0) {
+    const std::string n = environment(("SLURM_JOB_NUM_NODES_HET_GROUP_" + std::to_string(hetGroup)).c_str());
+    if (!n.empty()) return std::max(1, std::atoi(n.c_str()));
+  }
+  return allocation.nodes;
+}
+
 std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs,
                                        int hetGroup) {
   const auto& r = solver.resources;
   std::vector<std::string> args{"--job-name=" + solver.name};
   if (hetGroup >= 0) args.push_back("--het-group=" + std::to_string(hetGroup));
   for (std::string a : {"--nodes=1", "--ntasks=1"}) args.push_back(a);
+  // A pool's workers_per_node: worker k on the (k / M)-th node of its component.
+  if (solver.poolSize > 0 && solver.workersPerNode > 0)
+    args.push_back("--relative=" + std::to_string(solver.poolIndex / solver.workersPerNode));
   args.push_back("--cpus-per-task=" + std::to_string(r.cpusPerTask));
   // The solver's OpenMP threads use the cores its step holds.
   args.push_back("--export=ALL,OMP_NUM_THREADS=" + std::to_string(r.cpusPerTask));
@@ -70,6 +81,10 @@ std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vect
   args.push_back(solver.binary);
   args.insert(args.end(), solverArgs.begin(), solverArgs.end());
   return args;
+}
+
+int nodesOfPool(const SolverSpec& worker) {
+  return worker.workersPerNode > 0 ? (worker.poolSize + worker.workersPerNode - 1) / worker.workersPerNode : 0;
 }
 
 long JobComponent::memoryPerCpuMb() const { return memory.empty() ? 0 : (megabytes(memory) + cpusPerTask - 1) / cpusPerTask; }
@@ -104,6 +119,8 @@ ResourcePlan planResources(const Scene& scene) {
     }
     ++alike->tasks;
     alike->solvers.push_back(s.name);
+    if (s.poolSize > 0 && s.workersPerNode > 0)
+      alike->nodes = std::max(alike->nodes, nodesOfPool(s));
   }
   p.components[0].cpusPerTask = p.localProcesses;
   return p;
@@ -120,15 +137,25 @@ void describeResources(const Scene& scene, std::ostream& out) {
     const auto& c = p.components[k];
     out << "  component " << k << ": " << c.tasks << " task(s) x " << c.cpusPerTask << " core(s)"
         << (c.memory.empty() ? std::string() : ", " + c.memory + " each") << ": ";
+    if (c.nodes > 0) out << "on " << c.nodes << " node(s): ";
     if (k == 0) out << "the coupler";
     for (std::size_t i = 0; i < c.solvers.size(); ++i) out << (i ? ", " : "") << c.solvers[i];
     out << "\n";
   }
+  for (const auto& s : scene.solvers)
+    if (s.poolSize > 0 && s.poolIndex == 0)
+      out << "  pool " << s.poolEntry << ": " << s.poolSize << " workers (" << s.name << " .. " << s.poolEntry << "-"
+          << s.poolSize - 1 << ")"
+          << (s.workersPerNode > 0 ? ", " + std::to_string(s.workersPerNode) + " per node on " +
+                                         std::to_string(nodesOfPool(s)) + " node(s)"
+                                   : std::string(", where Slurm places them"))
+          << "\n";
 }
 
 namespace {
-std::string taskRequest(int tasks, int cpus, long memoryPerCpuMb, const SbatchOptions& options) {
+std::string taskRequest(int tasks, int cpus, long memoryPerCpuMb, int nodes, const SbatchOptions& options) {
   std::ostringstream s;
+  if (nodes > 0) s << "--nodes=" << nodes << " --ntasks-per-node=" << (tasks + nodes - 1) / nodes << " ";
   s << "--ntasks=" << tasks << " --cpus-per-task=" << cpus;
   if (memoryPerCpuMb > 0) s << " --mem-per-cpu=" << memoryPerCpuMb << "M";
   if (!options.partition.empty()) s << " --partition=" << options.partition;
@@ -149,22 +176,23 @@ std::string sbatchScript(const Scene& scene, const std::string& couplerBinary, c
     // (the coupler starts each step in its component with srun --het-group).
     for (std::size_t k = 0; k < p.components.size(); ++k) {
       if (k > 0) s << "#SBATCH hetjob\n";
-      s << "#SBATCH " << taskRequest(p.components[k].tasks, p.components[k].cpusPerTask,
-                                     p.components[k].memoryPerCpuMb(), options) << "\n";
+      const auto& c = p.components[k];
+      s << "#SBATCH " << taskRequest(c.tasks, c.cpusPerTask, c.memoryPerCpuMb(), c.nodes, options) << "\n";
     }
   } else {
     // Every task sized for the largest: what any Slurm schedules.
-    int tasks = 0, cpus = 1;
+    int tasks = 0, cpus = 1, nodes = 0;
     long memory = 0;
     bool allMemory = true;
     for (std::size_t k = 0; k < p.components.size(); ++k) {
       const auto& c = p.components[k];
       tasks += c.tasks;
+      nodes = std::max(nodes, c.nodes);
       cpus = std::max(cpus, c.cpusPerTask);
       if (k > 0 && c.memory.empty()) allMemory = false;
       memory = std::max(memory, c.memoryPerCpuMb());
     }
-    s << "#SBATCH " << taskRequest(tasks, cpus, allMemory ? memory : 0, options) << "\n";
+    s << "#SBATCH " << taskRequest(tasks, cpus, allMemory ? memory : 0, nodes, options) << "\n";
     if (tasks * cpus > p.cores())
       s << "# (" << tasks * cpus - p.cores() << " of its " << tasks * cpus
         << " cores go unused: coupler sbatch --heterogeneous asks for each kind of task apart)\n";

@@ -559,6 +559,17 @@ class CouplerRun final : public ExchangeDriver {
                     std::to_string(slurm_->components) + " components, and the scene's solvers need " +
                     std::to_string(planned) + " (the coupler's and one per kind of job step): submit the script `coupler "
                     "sbatch " + scene_.file + "` writes");
+    for (const auto& s : scene_.solvers) {
+      if (s.launch != SolverSpec::Launch::srun || s.poolIndex != 0 || nodesOfPool(s) == 0) continue;
+      const int group = slurm_->components > 0 ? slurmPlan_.componentOf(s.name) : -1;
+      const int nodes = slurmNodesOf(*slurm_, group);
+      if (nodes < nodesOfPool(s))
+        throw Refused(scene_.file + ": pool '" + s.poolEntry + "' places " + std::to_string(s.workersPerNode) +
+                      " workers per node on " + std::to_string(nodesOfPool(s)) + " nodes, and Slurm job " +
+                      slurm_->jobId + (group >= 0 ? " (component " + std::to_string(group) + ")" : std::string()) +
+                      " has " + std::to_string(nodes) +
+                      ": submit the script `coupler sbatch` writes, or raise pool.workers_per_node");
+    }
     srun_ = findExecutable("srun", scene_.sceneDir);
     if (srun_.empty()) throw Refused("launch: srun: no srun executable on $PATH");
     if (scene_.transport.kind == wire::TransportOptions::Kind::ipc && slurm_->nodes > 1)

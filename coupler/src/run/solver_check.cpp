@@ -24,6 +24,12 @@ void fillSetup(proto::Setup::Builder setup, const Scene& scene, const SolverSpec
   setup.setRunDir(fs::absolute(runDir).string());
   setup.setResuming(resuming);
   setup.setSceneDir(fs::absolute(scene.sceneDir).string());
+  if (s.poolSize > 0) {
+    auto pool = setup.initPool();
+    pool.setEntry(s.poolEntry);
+    pool.setIndex(static_cast<std::uint32_t>(s.poolIndex));
+    pool.setSize(static_cast<std::uint32_t>(s.poolSize));
+  }
   inputs.build(setup.initInputs());
 }
 

@@ -13,6 +13,7 @@
 // dt and ratio may be `auto`: dt from the fine solver's critical step, k from
 // the quotient of the coarse and fine critical steps (both times `safety`).
 #include <algorithm>
+#include <set>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -119,16 +120,20 @@ class Multirate final : public Schedule {
   /// together); each a declared solver, none twice, and at least one solver
   /// left to take the coarse step.
   void readFine(config::MapReader& m, const std::vector<SolverSpec>& solvers) {
-    if (m.has("fine") && m.node("fine").IsSequence()) fine_ = m.stringList("fine");
-    else if (auto one = m.optionalString("fine")) fine_ = {*one};
+    std::vector<std::string> listed;
+    if (m.has("fine") && m.node("fine").IsSequence()) listed = m.stringList("fine");
+    else if (auto one = m.optionalString("fine")) listed = {*one};
     else return m.error("fine", "missing: the solver (or list of solvers) that takes the small steps");
-    if (fine_.empty()) return m.error("fine", "an empty list: name the solver(s) that take the small steps");
-    std::string declared;
-    for (const auto& s : solvers) declared += (declared.empty() ? "" : ", ") + s.name;
-    for (auto it = fine_.begin(); it != fine_.end(); ++it) {
-      if (std::find(fine_.begin(), it, *it) != it) m.error("fine", "'" + *it + "' is listed twice");
-      else if (std::none_of(solvers.begin(), solvers.end(), [&](const SolverSpec& s) { return s.name == *it; }))
-        m.error("fine", "'" + *it + "' is not a solver declared under solvers (declared: " + declared + ")");
+    if (listed.empty()) return m.error("fine", "an empty list: name the solver(s) that take the small steps");
+    for (const auto& name : listed) {
+      const auto named = solversNamed(name, solvers);  // a pool entry stands for its workers
+      if (named.empty())
+        m.error("fine", "'" + name + "' is not a solver declared under solvers (declared: " +
+                            declaredSolverNames(solvers) + ")");
+      for (const auto& s : named) {
+        if (!fineSet_.insert(s).second) m.error("fine", "'" + s + "' is listed twice");
+        else fine_.push_back(s);
+      }
     }
     if (!solvers.empty() && std::all_of(solvers.begin(), solvers.end(), [this](const SolverSpec& s) { return isFine(s.name); }))
       m.error("fine", "names every solver: multirate needs a coarse solver besides the fine one(s); use lockstep");
@@ -141,14 +146,15 @@ class Multirate final : public Schedule {
     return endTime_ ? intervalsUntil(*endTime_, coarseDt()) : 0;
   }
 
-  bool isFine(const std::string& solver) const { return std::find(fine_.begin(), fine_.end(), solver) != fine_.end(); }
+  bool isFine(const std::string& solver) const { return fineSet_.count(solver) > 0; }
   std::string fineNames() const {
     std::string out;
     for (const auto& f : fine_) out += (out.empty() ? "" : ", ") + f;
     return out;
   }
 
-  std::vector<std::string> fine_;
+  std::vector<std::string> fine_;    // in the order the scene lists them
+  std::set<std::string> fineSet_;  // the same, to look up
   bool autoDt_ = false, autoRatio_ = false;
   Sequence sequence_ = Sequence::parallel;
   double dt_ = 0.0;

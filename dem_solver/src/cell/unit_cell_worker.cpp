@@ -136,7 +136,7 @@ std::array<double, 9> increment(std::span<const double> values, std::size_t k, s
 }  // namespace
 
 std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& node, const std::string& sceneFile,
-                                                           const std::string& baseDir) {
+                                                           const std::string& baseDir, PoolShare share) {
   const std::string dir = baseDir.empty() ? std::filesystem::path(sceneFile).parent_path().string() : baseDir;
   const YamlSection params(node, sceneFile, "params", {"unit_cells"});
   const YamlSection s = params.child("unit_cells", {"file", "first_id", "count", "stride", "weakened", "dt", "dt_factor",
@@ -162,7 +162,13 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
   if (first < 0) s.fail("first_id", "must not be negative");
   if (count < 1) s.fail("count", "must be at least 1");
   if (stride < 1) s.fail("stride", "must be at least 1");
-  const auto held = [&](long id) { return id >= first && (id - first) % stride == 0 && (id - first) / stride < count; };
+  if (count < static_cast<long>(share.size))
+    s.fail("count", "the pool's " + std::to_string(share.size) + " workers share " + std::to_string(count) +
+                        " cells: at least one cell per worker");
+  // The entry's k-th cell, first_id + k stride, belongs to worker k mod size.
+  const auto kOf = [&](long id) { return id >= first && (id - first) % stride == 0 ? (id - first) / stride : -1L; };
+  const auto listed = [&](long id) { return kOf(id) >= 0 && kOf(id) < count; };
+  const auto held = [&](long id) { return listed(id) && kOf(id) % share.size == share.index; };
   std::set<std::uint32_t> weakIds;
   std::unique_ptr<DemSystem> weak;
   if (s.has("weakened")) {
@@ -173,12 +179,12 @@ std::unique_ptr<UnitCellWorker> UnitCellWorker::fromParams(const YAML::Node& nod
     if (!ids || !ids.IsSequence()) w.fail("ids", "expected a list of cell ids");
     for (const auto& id : ids) {
       const long v = id.as<long>(-1);
-      if (!held(v))
+      if (!listed(v))
         w.fail("ids", "cell id " + id.as<std::string>("?") + " is not among this worker's cells (first_id + k stride, k < count)");
-      weakIds.insert(static_cast<std::uint32_t>(v));
+      if (held(v)) weakIds.insert(static_cast<std::uint32_t>(v));
     }
   }
-  for (long k = 0; k < count; ++k) {
+  for (long k = share.index; k < count; k += share.size) {
     const auto id = static_cast<std::uint32_t>(first + k * stride);
     worker->add(id, cloneCell(weakIds.count(id) ? *weak : prototypes[variantOf(id, prototypes.size())]));
   }

@@ -48,7 +48,7 @@ wire::SolverInfo DemSolver::info() const {
   i.capabilities = wire::baseCapabilities();
   for (const char* c : {"particles", "plane-walls", "triangle-walls", "contact-list", "external-forces",
                         "driven-particles", "particle-states", "critical-dt", "energies", "hdf5-snapshots",
-                        "unit-cells", "unit-cell-adoption", "hybrid-particles"})
+                        "unit-cells", "unit-cell-adoption", "pool-member", "hybrid-particles"})
     i.capabilities.emplace_back(c);
   return i;
 }
@@ -63,9 +63,13 @@ void DemSolver::setup(const wire::SetupContext& context, proto::CouplingData::Bu
   cells_.reset();
   zoneForceSums_.clear();
   try {
-    const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, instance_);
+    const YAML::Node params = findSolverParams(context.sceneYaml, sceneFile_, context.paramsEntry());
+    if (context.poolSize > 0 && !params["unit_cells"])
+      throw SolverError(Code::BAD_INPUT, sceneFile_ + ": solver '" + context.paramsEntry() +
+                                             "': pool: a pool's workers are GMH unit-cell workers (params.unit_cells)");
     if (params["unit_cells"]) {  // GMH worker: answers unitCellJobs only
-      cells_ = UnitCellWorker::fromParams(params, sceneFile_, context.baseDir());
+      const PoolShare share{context.poolIndex, std::max<std::uint32_t>(1, context.poolSize)};
+      cells_ = UnitCellWorker::fromParams(params, sceneFile_, context.baseDir(), share);
       cells_->report(outputs);
       ready_ = true;
       return;

@@ -47,8 +47,14 @@ struct SetupContext {
   proto::CouplingData::Reader inputs;
   bool resuming = false;  // a restore follows (coupler run --resume): append to existing output files
   std::string sceneDir = {};  // where relative paths in the scene resolve; empty: sceneFile's directory
+  /// A worker of a pool entry (`solvers[i].pool`): the entry whose params it
+  /// reads, its index and the worker count (poolSize 0: not in a pool).
+  std::string poolEntry = {};
+  std::uint32_t poolIndex = 0, poolSize = 0;
   /// The directory relative paths in the scene (meshes, particle and cell files) resolve against.
   std::string baseDir() const;
+  /// The name of the scene entry whose params this solver reads: its pool's, else its own.
+  const std::string& paramsEntry() const { return poolSize > 0 ? poolEntry : instance; }
 };
 
 /// The SolverHost refuses an advance with steps = 0 or a dt that is not

@@ -33,7 +33,19 @@ struct SolverSpec {
   std::vector<std::string> args;
   std::vector<std::string> extraCapabilities;  // `requires:` in the scene
   int line = 0;
+  /// A worker of a pool entry (`pool: {workers: N, workers_per_node: M}`):
+  /// the entry's name, whose params it reads, this worker's index and N
+  /// (poolSize 0: not in a pool). Worker k is named `<entry>-<k>`.
+  std::string poolEntry;
+  int poolIndex = 0, poolSize = 0;
+  int workersPerNode = 0;  // launch: srun: worker k runs on node k / M of its job component; 0: where Slurm puts it
 };
+
+/// The solvers a name in a scene's list of solvers stands for: a pool entry's
+/// workers, else the solver of that name; empty when neither is declared.
+std::vector<std::string> solversNamed(const std::string& name, const std::vector<SolverSpec>& solvers);
+/// The declared names for a message: each solver, a pool once by its entry's name.
+std::string declaredSolverNames(const std::vector<SolverSpec>& solvers);
 
 struct RecordSpec {
   std::string solver;

@@ -22,12 +22,17 @@ struct SlurmAllocation {
   int components = 0;  // of a heterogeneous job; 0: a homogeneous one
 };
 std::optional<SlurmAllocation> currentSlurmAllocation();
+/// The nodes of component hetGroup of the allocation (SLURM_JOB_NUM_NODES_HET_GROUP_k), or of all of it (-1).
+int slurmNodesOf(const SlurmAllocation& allocation, int hetGroup);
 
 /// The arguments after `srun` that start `solver` as a one-task job step
 /// running `binary` with `solverArgs`, in component `hetGroup` of a
 /// heterogeneous job (-1: a homogeneous one).
 std::vector<std::string> srunArguments(const SolverSpec& solver, const std::vector<std::string>& solverArgs,
                                        int hetGroup = -1);
+
+/// The nodes a pool worker's workers_per_node spreads its pool over (0 without it).
+int nodesOfPool(const SolverSpec& worker);
 
 /// One component of the (heterogeneous) job a scene asks for: tasks alike in
 /// cores and memory.
@@ -36,6 +41,7 @@ struct JobComponent {
   int cpusPerTask = 1;
   std::string memory;                 // per task (srun --mem); empty: the partition's default
   std::vector<std::string> solvers;   // the srun solvers it holds; none in component 0
+  int nodes = 0;                      // the nodes its pools' workers_per_node place them on; 0: any
   long memoryPerCpuMb() const;        // for #SBATCH --mem-per-cpu; 0 without memory
 };
 

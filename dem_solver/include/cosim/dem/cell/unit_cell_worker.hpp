@@ -44,12 +44,18 @@
 
 namespace cosim::dem {
 
+/// One worker's share of a pool entry's cells (`solvers[i].pool`): of the
+/// entry's ids first_id + k stride (k < count), those with k = index mod size.
+struct PoolShare {
+  std::uint32_t index = 0, size = 1;
+};
+
 class UnitCellWorker {
  public:
   /// From params.unit_cells; every other params key is refused (a worker holds only cells).
   /// Relative cell files resolve against `baseDir` (empty: sceneFile's directory), then as given.
   static std::unique_ptr<UnitCellWorker> fromParams(const YAML::Node& params, const std::string& sceneFile,
-                                                    const std::string& baseDir = "");
+                                                    const std::string& baseDir = "", PoolShare share = {});
   /// Answers every UnitCellJobs list in inputs with a UnitCellResults list in outputs.
   void answer(proto::CouplingData::Reader inputs, proto::CouplingData::Builder outputs);
   /// Takes over cells of a worker the run lost (session.capnp AdoptCells):
