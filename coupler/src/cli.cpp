@@ -150,8 +150,10 @@ int couplerMain(int argc, char** argv) {
     if (!overrides.empty()) std::cout << "effective scene: " << scene.file << "\n";
     if (command == "check") {
       describeScene(scene, std::cout);
-      const auto problems = checkSolverParams(scene, solverCheckDirectory());
+      const auto checked = checkSolverParams(scene, solverCheckDirectory());
+      const auto& problems = checked.problems;
       for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
+      describeSetupMemory(scene, checked, std::cout);
       std::cout << "solver params: " << (problems.empty() ? "every solver the run starts accepts its section"
                                                            : std::to_string(problems.size()) + " solver(s) refuse theirs")
                 << "\n";

@@ -998,7 +998,7 @@ fs::path solverCheckDirectory() {
 int runScene(const Scene& scene, const RunOptions& options) {
   installStopSignalHandlers();
   // Before anything starts for real: what only the solvers can judge.
-  if (const auto problems = checkSolverParams(scene, solverCheckDirectory()); !problems.empty()) {
+  if (const auto problems = checkSolverParams(scene, solverCheckDirectory()).problems; !problems.empty()) {
     for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
     std::cerr << "coupler: run refused before any solver started\n";
     return kExitBadConfig;

@@ -2,9 +2,11 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <map>
@@ -75,10 +77,11 @@ std::string message(const fs::path& log) {
   return text.empty() ? "(no message)" : text;
 }
 
-std::string outcome(const Check& c) {
+std::string outcome(const Check& c, long& peakKb) {
   const auto start = std::chrono::steady_clock::now();
   int status = 0;
-  while (::waitpid(c.pid, &status, WNOHANG) == 0) {
+  struct rusage usage {};
+  while (::wait4(c.pid, &status, WNOHANG, &usage) == 0) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > kCheckTimeoutS) {
       ::kill(c.pid, SIGKILL);
       ::waitpid(c.pid, &status, 0);
@@ -87,6 +90,7 @@ std::string outcome(const Check& c) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  peakKb = usage.ru_maxrss;  // kB on Linux
   if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return {};
   const std::string how = WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
                                             : "signal " + std::to_string(WTERMSIG(status));
@@ -95,12 +99,12 @@ std::string outcome(const Check& c) {
 
 }  // namespace
 
-std::vector<std::string> checkSolverParams(const Scene& scene, const fs::path& scratch) {
+SolverCheckResult checkSolverParams(const Scene& scene, const fs::path& scratch) {
   fs::create_directories(scratch);
   std::map<std::string, InputAssembler> inputs;
   for (const auto& c : scene.couplings) c->stageSetup(inputs);
   std::vector<Check> checks;
-  std::vector<std::string> problems;
+  SolverCheckResult result;
   for (const auto& s : scene.solvers) {
     if (s.launch == SolverSpec::Launch::attach) continue;  // a job step's binary is checked here, on the coupler's host
     const fs::path dir = scratch / s.name;
@@ -112,11 +116,43 @@ std::vector<std::string> checkSolverParams(const Scene& scene, const fs::path& s
     wire::InMessage::decode(m.frames()).save(file.string());
     checks.push_back({s.name, startCheck(s, file, dir / "check.log"), dir / "check.log"});
   }
-  for (const auto& c : checks)
-    if (auto problem = outcome(c); !problem.empty()) problems.push_back(std::move(problem));
+  for (const auto& c : checks) {
+    long peakKb = 0;
+    if (auto problem = outcome(c, peakKb); !problem.empty()) result.problems.push_back(std::move(problem));
+    else result.peakResidentKb[c.solver] = peakKb;
+  }
   std::error_code ignored;
   fs::remove_all(scratch, ignored);
-  return problems;
+  return result;
+}
+
+void describeSetupMemory(const Scene& scene, const SolverCheckResult& checked, std::ostream& out) {
+  if (checked.peakResidentKb.empty()) return;
+  const auto mb = [](long kb) { return std::to_string((kb + 512) / 1024) + " MB"; };
+  std::vector<std::string> entries;
+  struct Pool {
+    int workers = 0;
+    long sumKb = 0, largestKb = 0;
+  };
+  std::map<std::string, Pool> pools;
+  for (const auto& s : scene.solvers) {
+    const auto it = checked.peakResidentKb.find(s.name);
+    if (it == checked.peakResidentKb.end()) continue;
+    if (s.poolSize == 0) {
+      entries.push_back(s.name + " " + mb(it->second));
+      continue;
+    }
+    auto& pool = pools[s.poolEntry];
+    ++pool.workers;
+    pool.sumKb += it->second;
+    pool.largestKb = std::max(pool.largestKb, it->second);
+  }
+  for (const auto& [entry, pool] : pools)
+    entries.push_back("pool " + entry + " " + std::to_string(pool.workers) + " workers, " + mb(pool.sumKb) +
+                      " (at most " + mb(pool.largestKb) + " each)");
+  out << "setup memory (peak resident size of each solver's check):";
+  for (std::size_t k = 0; k < entries.size(); ++k) out << (k ? "; " : " ") << entries[k];
+  out << "\n";
 }
 
 }  // namespace cosim::coupler

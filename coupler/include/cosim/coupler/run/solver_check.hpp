@@ -6,6 +6,8 @@
 // judge (its params, meshes, particle and cell files) and `coupler run` refuses
 // such a scene before any process starts.
 #include <filesystem>
+#include <map>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -19,10 +21,19 @@ namespace cosim::coupler {
 void fillSetup(proto::Setup::Builder setup, const Scene& scene, const SolverSpec& s, InputAssembler& inputs,
                const std::filesystem::path& runDir, bool resuming);
 
+struct SolverCheckResult {
+  /// One per solver that refused its section, naming the solver and carrying its own message.
+  std::vector<std::string> problems;
+  /// The peak resident size of each solver's check [kB] (the kernel's count
+  /// for the process): what its setup took, meshes, particles and cells loaded.
+  std::map<std::string, long> peakResidentKb;
+};
+
 /// Checks every solver the coupler starts (not those attached by hand), all
-/// at once, in run directories under `scratch` (removed afterwards). Returns
-/// one problem per solver that refused its section, naming the solver and
-/// carrying the solver's own message.
-std::vector<std::string> checkSolverParams(const Scene& scene, const std::filesystem::path& scratch);
+/// at once, in run directories under `scratch` (removed afterwards).
+SolverCheckResult checkSolverParams(const Scene& scene, const std::filesystem::path& scratch);
+
+/// The checks' memory, one entry per solver and one per pool (its workers' sum), as `coupler check` prints it.
+void describeSetupMemory(const Scene& scene, const SolverCheckResult& checked, std::ostream& out);
 
 }  // namespace cosim::coupler
