@@ -55,11 +55,28 @@ from gmh_pool_scale import scene  # noqa: E402
 PAPER_SPHERES = 4096
 # Paper-size scenes (Liu, Sun, Fish 2016; shared/scenes/README.md): cells
 # (one per one-point element) and coarse steps at the reduced configs' rate.
+# Each scene's job cost at 500 spheres is its standard-tier validation run's
+# (validation/report.json: the figure named, its cells, coarse steps and two
+# workers on two cores; wall x workers / jobs, so FEM and coupler time are in
+# it), scaled to 4096 spheres with the measured exponent.
 PAPER_SCENES = [
-    ("L4 simple shear, 5 x 12 x 1, to 20 %", 60, 2000),
-    ("L5 biaxial, 6 x 12 mesh, to 5 %", 72, 4000),
-    ("L5 biaxial, 10 x 20 mesh, to 5 %", 200, 4000),
+    ("L4 simple shear, 5 x 12 x 1, to 20 %", 60, 2000, ("L4", "shear strain at the peak", 60, 2000)),
+    ("L5 biaxial, 6 x 12 mesh, to 5 %", 72, 4000, ("L5", "local peak strain, 8x16", 128, 4000)),
+    ("L5 biaxial, 10 x 20 mesh, to 5 %", 200, 4000, ("L5", "local peak strain, 8x16", 128, 4000)),
 ]
+REDUCED_WORKERS = 2
+
+
+def reduced_job_cost(calibration):
+    """A scene's job cost at 500 spheres from its standard-tier run, or None when the report lacks it."""
+    scene_name, figure, cells, steps = calibration
+    try:
+        with open(os.path.join(ROOT, "validation", "report.json")) as f:
+            rows = json.load(f)
+    except OSError:
+        return None
+    wall = next((r["wall_s"] for r in rows if r["scene"] == scene_name and r["figure"].startswith(figure)), None)
+    return wall * REDUCED_WORKERS / (cells * steps) if wall else None
 
 
 def prepare(binaries, work, spheres, seed=3):
@@ -122,7 +139,7 @@ def coupler_overhead(binaries, work, quick):
     cell = prepare(binaries, work, 60)
     grid_cells = [50, 200] if quick else [50, 200, 800]
     grid_workers = [1, 8, 32] if quick else [1, 8, 32, 64]
-    steps = 20
+    steps = 40
     rows = []
     for cells in grid_cells:
         for workers in grid_workers:
@@ -186,20 +203,22 @@ def measured_efficiency(binaries, work, quick):
     return {"t1_s": best[1], "t2_s": best[2], "efficiency": best[1] / (2.0 * best[2])}
 
 
-def model(ov, jc, cells, workers, spheres=PAPER_SPHERES):
-    t_job = jc["t0_s"] * (spheres / 500.0) ** jc["exponent"]
+def job_at(jc, spheres, t500=None):
+    """A job's cost for cells of `spheres`, from t500 (default: the bench's own) with the fitted exponent."""
+    return (t500 or jc["t0_s"]) * (spheres / 500.0) ** jc["exponent"]
+
+
+def model(ov, jc, cells, workers, t_job):
     overhead = ov["a_s"] + ov["b_s_per_job"] * cells + ov["c_s_per_worker"] * workers
     step = jc["t_fem_s"] + math.ceil(cells / workers) * t_job + overhead
     return cells * t_job / (workers * step), step, t_job, overhead
 
 
-def bottleneck(ov, jc, cells, spheres=PAPER_SPHERES):
-    """The fewest workers at which the coupler's overhead exceeds a worker's share of the jobs."""
-    for w in range(1, 100001):
-        _, _, t_job, overhead = model(ov, jc, cells, w, spheres)
-        if overhead > math.ceil(cells / w) * t_job:
-            return w
-    return None
+def bottleneck(ov, t_job):
+    """One cell per worker, the pool size from which the coupler's overhead
+    a + (b + c) C exceeds the job: the coupler is then the bottleneck."""
+    per = ov["b_s_per_job"] + ov["c_s_per_worker"]
+    return int((t_job - ov["a_s"]) / per) if per > 0 and t_job > ov["a_s"] else None
 
 
 def table(ov, jc, eff):
@@ -211,20 +230,24 @@ def table(ov, jc, eff):
              % (os.cpu_count() or 2, 1e6 * ov["c_s_per_worker"]),
              "| worker cost per job, 500-sphere cell, 1e-4 strain per step (t_0) | %.1f ms |" % (1e3 * jc["t0_s"]),
              "| job cost exponent p (t_job ~ n^p, 100-500 spheres) | %.2f |" % jc["exponent"],
-             "| job cost of a 4096-sphere cell (extrapolated) | %.2f s |" % (jc["t0_s"] * (PAPER_SPHERES / 500.0) ** jc["exponent"]),
+             "| job cost of a 4096-sphere cell (extrapolated) | %.2f s |" % job_at(jc, PAPER_SPHERES),
              "| worker memory per sphere held | %.1f kB |" % (1024 * jc["mb_per_sphere"]),
              "| FEM block compute per coarse step | %.3f ms |" % (1e3 * jc["t_fem_s"]),
              "| pool efficiency here, 4 cells, 1 -> 2 workers (T_1 / 2 T_2) | %.1f %% (T_1 %.2f s, T_2 %.2f s) |"
              % (100 * eff["efficiency"], eff["t1_s"], eff["t2_s"])]
-    lines += ["", "| scene at paper size (4096-sphere cells) | cells | coarse steps | workers | efficiency (model) | "
-              "hours | core-hours | memory | coupler bottleneck from |", "|---|---|---|---|---|---|---|---|---|"]
-    for name, cells, steps in PAPER_SCENES:
+    lines += ["", "| scene at paper size (4096-sphere cells) | cells | coarse steps | job [s] (500-sphere run) | workers | "
+              "efficiency (model) | hours | core-hours | memory | coupler bottleneck from (one cell per worker) |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for name, cells, steps, calibration in PAPER_SCENES:
+        t500 = reduced_job_cost(calibration)
+        t_job = job_at(jc, PAPER_SPHERES, t500)
+        where = ("%.1f ms" % (1e3 * t500)) if t500 else "the bench's"
         for workers in sorted({1, cells // 4, cells // 2, cells}):
-            e, step, _, _ = model(ov, jc, cells, workers)
+            e, step, _, _ = model(ov, jc, cells, workers, t_job)
             memory_gb = jc["mb_per_sphere"] * PAPER_SPHERES * cells / 1024.0
-            lines.append("| %s | %d | %d | %d | %.0f %% | %.1f | %.0f | %.1f GB | %s workers |"
-                         % (name, cells, steps, workers, 100 * e, steps * step / 3600.0,
-                            steps * step * (workers + 1) / 3600.0, memory_gb, bottleneck(ov, jc, cells) or "-"))
+            lines.append("| %s | %d | %d | %.2f (%s) | %d | %.0f %% | %.1f | %.0f | %.1f GB | %s cells |"
+                         % (name, cells, steps, t_job, where, workers, 100 * e, steps * step / 3600.0,
+                            steps * step * (workers + 1) / 3600.0, memory_gb, bottleneck(ov, t_job) or "-"))
     return "\n".join(lines) + "\n"
 
 
@@ -234,10 +257,12 @@ def plot(ov, jc, eff, path):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4.5))
     workers = np.unique(np.logspace(0, 3, 200).astype(int))
+    t_paper = job_at(jc, PAPER_SPHERES)
     for cells, style in ((60, "-"), (200, "--"), (1000, ":")):
-        ax.plot(workers, [100 * model(ov, jc, cells, w)[0] for w in workers], style,
+        ax.plot(workers, [100 * model(ov, jc, cells, w, t_paper)[0] for w in workers], style,
                 label="model, %d cells of %d spheres" % (cells, PAPER_SPHERES))
-    ax.plot(workers, [100 * model(ov, jc, 4, min(w, 4), 500)[0] for w in workers], color="grey", lw=0.8,
+    small = [w for w in workers if w <= 4]
+    ax.plot(small, [100 * model(ov, jc, 4, w, job_at(jc, 500))[0] for w in small], color="grey", lw=0.8,
             label="model, 4 cells of 500 spheres")
     ax.plot([1, 2], [100.0, 100 * eff["efficiency"]], "ko", label="measured here, 4 cells of 500 spheres")
     ax.set_xscale("log")
