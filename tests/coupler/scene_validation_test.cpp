@@ -695,6 +695,30 @@ TEST_F(CouplerCheck, SrunOutsideAnAllocationIsRefusedAndSbatchWritesTheScript) {
   EXPECT_NE(text.find(" run '" + scene + "' --out '" + (cwd_.path() / "batch").string() + "'"), std::string::npos) << text;
 }
 
+TEST_F(CouplerCheck, APoolNeedingMoreNodesThanTheAllocationIsRefusedBeforeAnyStep) {
+  TempDir sceneDir;
+  const auto scene = sceneDir.write("pool.yaml",
+                                    "scene: pool-nodes\n"
+                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                    "solvers:\n"
+                                    "  - {name: block, kind: mock}\n"
+                                    "  - name: cells\n"
+                                    "    kind: dem\n"
+                                    "    binary: /bin/true\n"
+                                    "    launch: srun\n"
+                                    "    pool: {workers: 4, workers_per_node: 2}\n");
+  // A one-node allocation as Slurm describes it to the processes in it.
+  ::setenv("SLURM_JOB_ID", "77", 1);
+  ::setenv("SLURM_JOB_NUM_NODES", "1", 1);
+  const auto refused = runProcess({couplerBinary(), "run", scene, "--out", "run", "--no-progress"}, cwd_.path());
+  ::unsetenv("SLURM_JOB_ID");
+  ::unsetenv("SLURM_JOB_NUM_NODES");
+  EXPECT_EQ(refused.exitCode, cosim::coupler::kExitRefused) << refused.err;
+  EXPECT_NE(refused.err.find("pool 'cells' places 2 workers per node on 2 nodes, and Slurm job 77 has 1"),
+            std::string::npos)
+      << refused.err;
+}
+
 TEST_F(CouplerCheck, UsageErrorsExitTwo) {
   const auto noScene = runProcess({couplerBinary(), "check"}, cwd_.path());
   EXPECT_EQ(noScene.exitCode, cosim::coupler::kExitBadConfig);
