@@ -26,7 +26,7 @@ dem_solver workers over ipc on this machine):
 
 Model (one core per worker, the coupler serial):
   T(W) = t_fem + ceil(C / W) t_job + a + b C + c W  per coarse step,
-  E(W) = C t_job / (W T(W)).
+  E(W) = T(1) / (W T(W)), the measured efficiency's definition.
 The coupler is the bottleneck where a + b C + c W exceeds ceil(C / W) t_job.
 It prints the table, writes bench/cluster/out/pool_scaling.{json,png} and with
 --docs the table into docs/cluster.md (between its bench markers) and the plot
@@ -208,10 +208,16 @@ def job_at(jc, spheres, t500=None):
     return (t500 or jc["t0_s"]) * (spheres / 500.0) ** jc["exponent"]
 
 
-def model(ov, jc, cells, workers, t_job):
+def step_time(ov, jc, cells, workers, t_job):
+    """The model's wall time of one coarse step, and the coupler's overhead in it."""
     overhead = ov["a_s"] + ov["b_s_per_job"] * cells + ov["c_s_per_worker"] * workers
-    step = jc["t_fem_s"] + math.ceil(cells / workers) * t_job + overhead
-    return cells * t_job / (workers * step), step, t_job, overhead
+    return jc["t_fem_s"] + math.ceil(cells / workers) * t_job + overhead, overhead
+
+
+def model(ov, jc, cells, workers, t_job):
+    """Parallel efficiency T(1) / (W T(W)), the step time and the coupler's overhead at W workers."""
+    step, overhead = step_time(ov, jc, cells, workers, t_job)
+    return step_time(ov, jc, cells, 1, t_job)[0] / (workers * step), step, t_job, overhead
 
 
 def bottleneck(ov, t_job):
@@ -245,7 +251,7 @@ def table(ov, jc, eff):
         for workers in sorted({1, cells // 4, cells // 2, cells}):
             e, step, _, _ = model(ov, jc, cells, workers, t_job)
             memory_gb = jc["mb_per_sphere"] * PAPER_SPHERES * cells / 1024.0
-            lines.append("| %s | %d | %d | %.2f (%s) | %d | %.0f %% | %.1f | %.0f | %.1f GB | %s cells |"
+            lines.append("| %s | %d | %d | %.2f (%s) | %d | %.0f %% | %.2f | %.0f | %.1f GB | %s cells |"
                          % (name, cells, steps, t_job, where, workers, 100 * e, steps * step / 3600.0,
                             steps * step * (workers + 1) / 3600.0, memory_gb, bottleneck(ov, t_job) or "-"))
     return "\n".join(lines) + "\n"
@@ -267,7 +273,7 @@ def plot(ov, jc, eff, path):
     ax.plot([1, 2], [100.0, 100 * eff["efficiency"]], "ko", label="measured here, 4 cells of 500 spheres")
     ax.set_xscale("log")
     ax.set_xlabel("workers (one core each)")
-    ax.set_ylabel("pool efficiency [%]")
+    ax.set_ylabel("pool efficiency T(1) / (W T(W)) [%]")
     ax.set_ylim(0, 105)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
