@@ -263,6 +263,22 @@ std::string srunScene(TempDir& dir, const std::string& resources, const std::str
                                     "  - {name: right, kind: mock, launch: srun" + resources + "}\n");
 }
 
+/// A GMH pool of five srun workers, two per node (three nodes), fed by a mock FEM block.
+std::string srunPoolScene(TempDir& dir) {
+  return dir.write("pool.yaml",
+                   "scene: pool\n"
+                   "schedule: {kind: multirate, fine: [cells], dt: 1.0e-3, ratio: 1, coarse_steps: 2}\n"
+                   "solvers:\n"
+                   "  - {name: block, kind: mock}\n"
+                   "  - name: cells\n"
+                   "    kind: dem\n"
+                   "    binary: /bin/true\n"
+                   "    launch: srun\n"
+                   "    pool: {workers: 5, workers_per_node: 2}\n"
+                   "couplings:\n"
+                   "  - {name: cells, kind: gmh, fem: block, workers: [cells]}\n");
+}
+
 TEST(GoodScene, SrunSolversDefaultToTcpWithCurveAndKeepAnExplicitTransport) {
   TempDir dir;
   const Scene cluster = loadScene(srunScene(dir, ", resources: {cpus_per_task: 4, memory: 8G, overlap: true}"));
@@ -335,19 +351,7 @@ TEST(SlurmLaunch, ThePlanGroupsTheStepsIntoComponentsAndTheBatchScriptAsksForThe
 
 TEST(SlurmLaunch, APoolEntryStandsForItsWorkersEachPlacedOnItsNode) {
   TempDir dir;
-  const auto path = dir.write("pool.yaml",
-                              "scene: pool\n"
-                              "schedule: {kind: multirate, fine: [cells], dt: 1.0e-3, ratio: 1, coarse_steps: 2}\n"
-                              "solvers:\n"
-                              "  - {name: block, kind: mock}\n"
-                              "  - name: cells\n"
-                              "    kind: dem\n"
-                              "    binary: /bin/true\n"
-                              "    launch: srun\n"
-                              "    pool: {workers: 5, workers_per_node: 2}\n"
-                              "couplings:\n"
-                              "  - {name: cells, kind: gmh, fem: block, workers: [cells]}\n");
-  const Scene scene = loadScene(path);
+  const Scene scene = loadScene(srunPoolScene(dir));
   ASSERT_EQ(scene.solvers.size(), 6u);
   for (int k = 0; k < 5; ++k) {
     const auto& w = scene.solvers[static_cast<std::size_t>(k) + 1];
@@ -697,16 +701,7 @@ TEST_F(CouplerCheck, SrunOutsideAnAllocationIsRefusedAndSbatchWritesTheScript) {
 
 TEST_F(CouplerCheck, APoolNeedingMoreNodesThanTheAllocationIsRefusedBeforeAnyStep) {
   TempDir sceneDir;
-  const auto scene = sceneDir.write("pool.yaml",
-                                    "scene: pool-nodes\n"
-                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
-                                    "solvers:\n"
-                                    "  - {name: block, kind: mock}\n"
-                                    "  - name: cells\n"
-                                    "    kind: dem\n"
-                                    "    binary: /bin/true\n"
-                                    "    launch: srun\n"
-                                    "    pool: {workers: 4, workers_per_node: 2}\n");
+  const auto scene = srunPoolScene(sceneDir);
   // A one-node allocation as Slurm describes it to the processes in it.
   ::setenv("SLURM_JOB_ID", "77", 1);
   ::setenv("SLURM_JOB_NUM_NODES", "1", 1);
@@ -714,7 +709,7 @@ TEST_F(CouplerCheck, APoolNeedingMoreNodesThanTheAllocationIsRefusedBeforeAnySte
   ::unsetenv("SLURM_JOB_ID");
   ::unsetenv("SLURM_JOB_NUM_NODES");
   EXPECT_EQ(refused.exitCode, cosim::coupler::kExitRefused) << refused.err;
-  EXPECT_NE(refused.err.find("pool 'cells' places 2 workers per node on 2 nodes, and Slurm job 77 has 1"),
+  EXPECT_NE(refused.err.find("pool 'cells' places 2 workers per node on 3 nodes, and Slurm job 77 has 1"),
             std::string::npos)
       << refused.err;
 }
