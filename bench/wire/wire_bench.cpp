@@ -14,6 +14,11 @@
 // parent has bound. A child dies with its parent (PR_SET_PDEATHSIG) and leaves
 // on a `shutdown` body; the parent always reaps it.
 //
+// The shm transport is the shared-memory data path (shm_link.hpp) as the
+// coupler and a solver on one host use it: the parent creates the segment and
+// the doorbell in a private run directory, the child maps them by name, and
+// requests and replies are built in the lanes and read in place.
+//
 // --experiment heap|floor replaces the table by an A/B comparison measured in
 // alternating blocks (see the Experiments comment below): what a change to the
 // wire library's memory handling or framing would gain.
@@ -48,6 +53,7 @@
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/endpoint.hpp"
 #include "cosim/wire/message.hpp"
+#include "cosim/wire/shm_link.hpp"
 #include "cosim/wire/sockets.hpp"
 
 namespace {
@@ -67,9 +73,14 @@ constexpr auto kPoll = std::chrono::milliseconds(200);
 constexpr double kReplyTimeoutS = 60.0;
 constexpr double kExitTimeoutS = 10.0;
 
-// Targets of the wire: small-message ipc round trip and bulk throughput.
+// Targets of the wire: small-message ipc round trip and bulk throughput; the
+// shared-memory path's, against the kernel floor measured in the same run.
 constexpr double kSmallIpcMedianUs = 50.0;
 constexpr double kBulkGBps = 2.0;
+constexpr double kSmallShmFloorFactor = 2.0;
+constexpr double kBulkShmGBps = 5.0;
+constexpr double kShmSpinS = 20e-6;  // the scene's default transport.shm_spin_us
+constexpr const char* kShmPrefix = "shm:";
 constexpr std::size_t kSmallMaxBytes = 1024;
 constexpr std::size_t kBulkMinBytes = std::size_t{16} << 20;
 
@@ -150,8 +161,12 @@ std::string readLine(int fd) {
 
 /// The acknowledgement of a streamed request: its first and last value and
 /// its length, which the sender checks.
-wire::OutMessage sinkReply(proto::Envelope::Reader request) {
-  wire::OutMessage reply;
+using MessageFactory = std::function<wire::OutMessage(std::size_t words)>;
+
+wire::OutMessage heapMessage(std::size_t words) { return wire::OutMessage(words); }
+
+wire::OutMessage sinkReply(proto::Envelope::Reader request, const MessageFactory& make) {
+  wire::OutMessage reply = make(64);
   auto env = reply.envelope();
   env.setSeq(request.getSeq());
   env.setReplyTo(request.getSeq());
@@ -165,8 +180,8 @@ wire::OutMessage sinkReply(proto::Envelope::Reader request) {
 }
 
 /// The `advanced` reply: the request's arrays copied back as outputs.
-wire::OutMessage echoReply(proto::Envelope::Reader request, std::size_t requestBytes) {
-  wire::OutMessage reply(wordsFor(requestBytes));
+wire::OutMessage echoReply(proto::Envelope::Reader request, std::size_t requestBytes, const MessageFactory& make) {
+  wire::OutMessage reply = make(wordsFor(requestBytes));
   auto env = reply.envelope();
   env.setSeq(request.getSeq());
   env.setReplyTo(request.getSeq());
@@ -184,8 +199,8 @@ wire::OutMessage echoReply(proto::Envelope::Reader request, std::size_t requestB
   return reply;
 }
 
-wire::OutMessage bodyOnly(Which which, std::uint64_t replyTo) {
-  wire::OutMessage m;
+wire::OutMessage bodyOnly(Which which, std::uint64_t replyTo, const MessageFactory& make = heapMessage) {
+  wire::OutMessage m = make(64);
   auto env = m.envelope();
   env.setReplyTo(replyTo);
   if (which == Which::HELLO) {
@@ -211,8 +226,45 @@ void echoRaw(zmq::socket_t& socket) {
       throw std::runtime_error("echo peer: raw send timed out");
 }
 
+/// What the echo peer does with one request: its reply, or nullopt for
+/// shutdown (answered). Throws on a request the peer has no answer for.
+std::optional<wire::OutMessage> answer(const wire::InMessage& in, const MessageFactory& make) {
+  const auto env = in.envelope();
+  const auto which = env.getBody().which();
+  if (which == Which::SHUTDOWN) return std::nullopt;
+  if (which != Which::ADVANCE) throw std::runtime_error("echo peer: unexpected body '" + wire::bodyName(env) + "'");
+  const auto steps = env.getBody().getAdvance().getSteps();
+  if (steps < 1 || steps > 5) throw std::runtime_error("echo peer: steps " + std::to_string(steps) + " is no mode");
+  const auto mode = static_cast<PeerMode>(steps);
+  applyHeapMode(mode);
+  if (mode == PeerMode::sink) return sinkReply(env, make);
+  return echoReply(env, in.sizeInBytes(), make);
+}
+
+/// Echoes requests through a shared-memory link ("shm:SEGMENT DOORBELL") until `shutdown`.
+int serveEchoShared(const std::string& line) {
+  const auto space = line.find(' ');
+  auto link = wire::ShmLink::open(line.substr(std::strlen(kShmPrefix), space - std::strlen(kShmPrefix)),
+                                  line.substr(space + 1));
+  const MessageFactory make = [&link](std::size_t words) { return link->message(words); };
+  for (;;) {
+    if (!wire::waitForDoorbell(link->incomingBell(), kShmSpinS, kReplyTimeoutS, [&] { return link->hasIncoming(); }))
+      throw std::runtime_error("echo peer: nothing from the parent for 60 s");
+    auto item = link->take();
+    if (item->kind != wire::LaneItem::Kind::message) throw std::runtime_error("echo peer: no message in the lane");
+    auto reply = answer(*item->message, make);
+    const std::uint64_t seq = item->message->envelope().getSeq();
+    item.reset();  // let go of the request before answering, as a solver does
+    const bool done = !reply;
+    if (!link->post(done ? bodyOnly(Which::SHUTDOWN_DONE, seq, make) : *reply))
+      throw std::runtime_error("echo peer: a reply did not fit the shared-memory lane");
+    if (done) return 0;
+  }
+}
+
 /// Echoes requests until `shutdown`; 0 on a clean exit.
 int serveEcho(const std::string& endpoint) {
+  if (endpoint.rfind(kShmPrefix, 0) == 0) return serveEchoShared(endpoint);
   {
     wire::DealerSocket dealer(endpoint, kPeerName);
     dealer.send(bodyOnly(Which::HELLO, 0));  // lets the ROUTER learn our routing id
@@ -221,23 +273,13 @@ int serveEcho(const std::string& endpoint) {
       if (!received) throw std::runtime_error("echo peer: nothing from the parent for 60 s");
       if (!received->message) throw std::runtime_error("echo peer: malformed request: " + received->error);
       const auto env = received->message->envelope();
-      const auto which = env.getBody().which();
-      if (which == Which::SHUTDOWN) {
+      auto reply = answer(*received->message, heapMessage);
+      if (!reply) {
         dealer.send(bodyOnly(Which::SHUTDOWN_DONE, env.getSeq()));
         break;
       }
-      if (which != Which::ADVANCE)
-        throw std::runtime_error("echo peer: unexpected body '" + wire::bodyName(env) + "'");
-      const auto steps = env.getBody().getAdvance().getSteps();
-      if (steps < 1 || steps > 5) throw std::runtime_error("echo peer: steps " + std::to_string(steps) + " is no mode");
-      const auto mode = static_cast<PeerMode>(steps);
-      applyHeapMode(mode);
-      if (mode == PeerMode::sink) {
-        dealer.send(sinkReply(env));
-        continue;
-      }
-      dealer.send(echoReply(env, received->message->sizeInBytes()));
-      if (mode == PeerMode::rawNext) echoRaw(dealer.raw());
+      dealer.send(*reply);
+      if (static_cast<PeerMode>(env.getBody().getAdvance().getSteps()) == PeerMode::rawNext) echoRaw(dealer.raw());
     }
   }  // the DEALER closes here; terminating the context waits for the last reply to leave
   wire::context().close();
@@ -369,8 +411,45 @@ void send(wire::RouterSocket& router, const wire::OutMessage& message) {
   if (!router.send(kPeerName, message)) throw std::runtime_error("echo peer not connected");
 }
 
-wire::OutMessage advanceRequest(std::uint64_t seq, std::span<const double> payload, PeerMode mode) {
-  wire::OutMessage m(wordsFor(payload.size_bytes()));
+/// The parent's end of one transport: where a request is built, how it is
+/// sent, how the reply comes back.
+struct Channel {
+  MessageFactory message;
+  std::function<void(const wire::OutMessage&)> send;
+  std::function<wire::InMessage()> await;
+};
+
+Channel socketChannel(wire::RouterSocket& router, EchoChild& child) {
+  return {heapMessage, [&router](const wire::OutMessage& m) { send(router, m); },
+          [&router, &child] { return awaitMessage(router, child); }};
+}
+
+/// The next item of a shared-memory lane; throws on timeout, garbage or a dead child.
+wire::InMessage awaitShared(wire::ShmLink& link, EchoChild& child) {
+  const auto t0 = Clock::now();
+  for (;;) {
+    const double waitS = std::chrono::duration<double>(kPoll).count();
+    if (wire::waitForDoorbell(link.incomingBell(), kShmSpinS, waitS, [&] { return link.hasIncoming(); })) {
+      auto item = link.take();
+      if (item->kind != wire::LaneItem::Kind::message)
+        throw std::runtime_error("the echo peer's lane holds no message: " + item->error);
+      return std::move(*item->message);
+    }
+    child.checkAlive();
+    if (secondsSince(t0) > kReplyTimeoutS) throw std::runtime_error("no reply from the echo peer for 60 s");
+  }
+}
+
+Channel sharedChannel(wire::ShmLink& link, EchoChild& child) {
+  return {[&link](std::size_t words) { return link.message(words); },
+          [&link](const wire::OutMessage& m) {
+            if (!link.post(m)) throw std::runtime_error("a request did not fit the shared-memory lane");
+          },
+          [&link, &child] { return awaitShared(link, child); }};
+}
+
+wire::OutMessage advanceRequest(Channel& channel, std::uint64_t seq, std::span<const double> payload, PeerMode mode) {
+  wire::OutMessage m = channel.message(wordsFor(payload.size_bytes()));
   auto env = m.envelope();
   env.setSeq(seq);
   auto advance = env.getBody().initAdvance();
@@ -421,15 +500,14 @@ struct Samples {
 };
 
 /// One checked round trip; its times are added to `into` when given.
-void roundTrip(wire::RouterSocket& router, EchoChild& child, std::uint64_t& seq, std::vector<double>& payload,
-               PeerMode mode, Samples* into) {
+void roundTrip(Channel& channel, std::uint64_t& seq, std::vector<double>& payload, PeerMode mode, Samples* into) {
   ++seq;
   if (!payload.empty()) payload[0] = static_cast<double>(seq);  // every payload distinct
   const auto t0 = Clock::now();
-  auto request = advanceRequest(seq, payload, mode);
+  auto request = advanceRequest(channel, seq, payload, mode);
   const auto t1 = Clock::now();
-  send(router, request);
-  const auto reply = awaitMessage(router, child);
+  channel.send(request);
+  const auto reply = channel.await();
   const auto t2 = Clock::now();
   checkEcho(reply, seq, payload);
   if (!into) return;
@@ -438,13 +516,12 @@ void roundTrip(wire::RouterSocket& router, EchoChild& child, std::uint64_t& seq,
 }
 
 /// Warm-up, then `count` timed round trips of `bytes` payload.
-Row measure(wire::RouterSocket& router, EchoChild& child, const std::string& transport, std::size_t bytes,
-            int count, std::uint64_t& seq) {
+Row measure(Channel& channel, const std::string& transport, std::size_t bytes, int count, std::uint64_t& seq) {
   auto payload = makePayload(bytes);
   const int warmup = std::max(2, count / 10);
-  for (int i = 0; i < warmup; ++i) roundTrip(router, child, seq, payload, PeerMode::unchanged, nullptr);
+  for (int i = 0; i < warmup; ++i) roundTrip(channel, seq, payload, PeerMode::unchanged, nullptr);
   Samples s;
-  for (int i = 0; i < count; ++i) roundTrip(router, child, seq, payload, PeerMode::unchanged, &s);
+  for (int i = 0; i < count; ++i) roundTrip(channel, seq, payload, PeerMode::unchanged, &s);
   s.sort();
   return {transport,
           bytes,
@@ -460,11 +537,11 @@ Row measure(wire::RouterSocket& router, EchoChild& child, const std::string& tra
 /// kStreamWindow unacknowledged; the peer decodes each one and acknowledges it
 /// with its first and last value and length (checked). Timed from the first
 /// build to the last acknowledgement; one-way payload GB/s.
-double streamGBps(wire::RouterSocket& router, EchoChild& child, std::uint64_t& seq, std::size_t bytes, int count) {
+double streamGBps(Channel& channel, std::uint64_t& seq, std::size_t bytes, int count) {
   auto payload = makePayload(bytes);
   std::vector<std::uint64_t> inFlight;
   auto acknowledge = [&]() {
-    const auto reply = awaitMessage(router, child);
+    const auto reply = channel.await();
     const auto env = reply.envelope();
     if (inFlight.empty() || env.getReplyTo() != inFlight.front())
       throw std::runtime_error("stream: acknowledgement out of order (" + std::to_string(env.getReplyTo()) + ")");
@@ -479,7 +556,7 @@ double streamGBps(wire::RouterSocket& router, EchoChild& child, std::uint64_t& s
   for (int i = 0; i < count; ++i) {
     if (static_cast<int>(inFlight.size()) == kStreamWindow) acknowledge();
     payload[0] = static_cast<double>(++seq);
-    send(router, advanceRequest(seq, payload, PeerMode::sink));
+    channel.send(advanceRequest(channel, seq, payload, PeerMode::sink));
     inFlight.push_back(seq);
   }
   while (!inFlight.empty()) acknowledge();
@@ -492,7 +569,8 @@ double streamGBps(wire::RouterSocket& router, EchoChild& child, std::uint64_t& s
 void rawRoundTrip(wire::RouterSocket& router, EchoChild& child, std::uint64_t& seq, std::vector<double>& payload,
                   Samples* into) {
   std::vector<double> none;
-  roundTrip(router, child, seq, none, PeerMode::rawNext, nullptr);
+  auto channel = socketChannel(router, child);
+  roundTrip(channel, seq, none, PeerMode::rawNext, nullptr);
   if (!payload.empty()) payload[0] = static_cast<double>(seq) + 0.5;
   auto& socket = router.raw();
   const auto t0 = Clock::now();
@@ -522,7 +600,8 @@ std::vector<Arm> experimentArms(const std::string& name, wire::RouterSocket& rou
   auto wireTrip = [&router, &child](PeerMode mode) {
     return [&router, &child, mode](std::uint64_t& seq, std::vector<double>& payload, Samples* into) {
       applyHeapMode(mode);
-      roundTrip(router, child, seq, payload, mode, into);
+      auto channel = socketChannel(router, child);
+      roundTrip(channel, seq, payload, mode, into);
     };
   };
   if (name == "heap") return {{"fresh", wireTrip(PeerMode::freshPages)}, {"kept", wireTrip(PeerMode::keptOnHeap)}};
@@ -554,13 +633,13 @@ std::vector<Row> measureArms(const std::vector<Arm>& arms, const std::string& tr
   return rows;
 }
 
-void shutdownPeer(wire::RouterSocket& router, EchoChild& child, std::uint64_t seq) {
-  wire::OutMessage m;
+void shutdownPeer(Channel& channel, EchoChild& child, std::uint64_t seq) {
+  wire::OutMessage m = channel.message(64);
   auto env = m.envelope();
   env.setSeq(seq);
   env.getBody().initShutdown().setReason("benchmark finished");
-  send(router, m);
-  const auto reply = awaitMessage(router, child);
+  channel.send(m);
+  const auto reply = channel.await();
   if (reply.envelope().getBody().which() != Which::SHUTDOWN_DONE)
     throw std::runtime_error("expected 'shutdownDone', got '" + wire::bodyName(reply.envelope()) + "'");
   child.reap(kExitTimeoutS);
@@ -587,18 +666,27 @@ class TempRunDir {
 };
 
 /// The table's rows for one transport, or the experiment's.
-std::vector<Row> runCases(wire::RouterSocket& router, EchoChild& child, const std::string& transport,
-                          const Options& options, std::uint64_t& seq) {
+std::vector<Row> runCases(Channel& channel, const std::string& transport, const Options& options,
+                          std::uint64_t& seq) {
   std::vector<Row> rows;
   for (const auto& c : kCases) {
     const int count = options.quick ? std::max(1, c.roundTrips / 10) : c.roundTrips;
-    if (options.experiment.empty()) {
-      rows.push_back(measure(router, child, transport, c.bytes, count, seq));
-      if (c.bytes > 0) {
-        (void)streamGBps(router, child, seq, c.bytes, kStreamWindow);  // warm-up
-        rows.back().streamGBps = streamGBps(router, child, seq, c.bytes, 2 * count);
-      }
-    } else if (options.experiment == "floor" || c.bytes >= (std::size_t{1} << 20)) {  // heap: only large buffers differ
+    rows.push_back(measure(channel, transport, c.bytes, count, seq));
+    if (c.bytes > 0) {
+      (void)streamGBps(channel, seq, c.bytes, kStreamWindow);  // warm-up
+      rows.back().streamGBps = streamGBps(channel, seq, c.bytes, 2 * count);
+    }
+  }
+  return rows;
+}
+
+/// The experiment's rows for one transport (sockets only).
+std::vector<Row> runExperiment(wire::RouterSocket& router, EchoChild& child, const std::string& transport,
+                               const Options& options, std::uint64_t& seq) {
+  std::vector<Row> rows;
+  for (const auto& c : kCases) {
+    const int count = options.quick ? std::max(1, c.roundTrips / 10) : c.roundTrips;
+    if (options.experiment == "floor" || c.bytes >= (std::size_t{1} << 20)) {  // heap: only large buffers differ
       const auto ab = measureArms(experimentArms(options.experiment, router, child), transport, c.bytes,
                                   std::max(2, count / 4), seq);
       rows.insert(rows.end(), ab.begin(), ab.end());
@@ -630,10 +718,30 @@ std::vector<Row> runTransport(wire::TransportOptions::Kind kind, EchoChild& chil
     if (hello.envelope().getBody().which() != Which::HELLO)
       throw std::runtime_error("expected 'hello', got '" + wire::bodyName(hello.envelope()) + "'");
     std::uint64_t seq = 0;
-    rows = runCases(router, child, transport, options, seq);
+    auto channel = socketChannel(router, child);
+    rows = options.experiment.empty() ? runCases(channel, transport, options, seq)
+                                      : runExperiment(router, child, transport, options, seq);
     for (auto& r : rows) r.placement = placement;
-    shutdownPeer(router, child, ++seq);
+    shutdownPeer(channel, child, ++seq);
     wire::removeIpcEndpoint(router.endpoint());
+  }
+  return rows;
+}
+
+/// The shared-memory rows: the segment and doorbell as the coupler creates them.
+std::vector<Row> runShared(EchoChild& child, const Options& options, Placement placement) {
+  if (placement == Placement::packed) cosim::util::restrictThreadsOf(child.pid(), cosim::util::allowedCpus());
+  TempRunDir runDir;
+  std::vector<Row> rows;
+  {
+    wire::CouplerDoorbell doorbell((runDir.path() / "doorbell").string());
+    auto link = wire::ShmLink::create((runDir.path() / kPeerName).string(), std::uint64_t{4} << 30, doorbell);
+    child.sendEndpoint(kShmPrefix + link->path() + " " + doorbell.path());
+    std::uint64_t seq = 0;
+    auto channel = sharedChannel(*link, child);
+    rows = runCases(channel, "shm", options, seq);
+    for (auto& r : rows) r.placement = placement;
+    shutdownPeer(channel, child, ++seq);
   }
   return rows;
 }
@@ -688,8 +796,20 @@ std::string placementName(Placement p) { return p == Placement::packed ? "packed
 /// The row's target as text and whether it is met; empty text when none
 /// applies. Both targets are judged on ipc, the default transport; tcp rows
 /// are printed for comparison.
-std::pair<std::string, bool> target(const Row& r) {
+std::pair<std::string, bool> target(const Row& r, double floorUs) {
   std::ostringstream s;
+  s << std::fixed << std::setprecision(1);
+  if (r.transport == "shm") {
+    if (r.bytes <= kSmallMaxBytes) {
+      s << "median <= " << kSmallShmFloorFactor << " x floor (" << kSmallShmFloorFactor * floorUs << " us)";
+      return {s.str(), r.medianUs <= kSmallShmFloorFactor * floorUs};
+    }
+    if (r.bytes >= kBulkMinBytes) {
+      s << ">= " << kBulkShmGBps << " GB/s";
+      return {s.str(), gbps(r) >= kBulkShmGBps};
+    }
+    return {"", true};
+  }
   if (r.transport != "ipc") return {"", true};  // tcp and experiment arms are not judged
   if (r.bytes <= kSmallMaxBytes) {
     s << "median <= " << kSmallIpcMedianUs << " us";
@@ -710,14 +830,14 @@ std::string loadAverage() {
 }
 
 /// Prints the table; returns, per placement measured, whether its rows meet every target.
-std::map<Placement, bool> printTable(const std::vector<Row>& rows) {
+std::map<Placement, bool> printTable(const std::vector<Row>& rows, const std::map<Placement, double>& floorUs) {
   std::map<Placement, bool> allMet;
   std::cout << std::left << std::setw(10) << "transport" << std::setw(10) << "placement" << std::right
             << std::setw(9) << "payload" << std::setw(8) << "trips" << std::setw(12) << "median us" << std::setw(11)
             << "p10 us" << std::setw(11) << "p90 us" << std::setw(10) << "GB/s" << std::setw(10) << "build us"
             << std::setw(12) << "stream GB/s" << "   target\n";
   for (const auto& r : rows) {
-    const auto [what, met] = target(r);
+    const auto [what, met] = target(r, floorUs.at(r.placement));
     std::ostringstream tp;
     if (r.bytes > 0) tp << std::fixed << std::setprecision(3) << gbps(r);
     else tp << "-";
@@ -787,7 +907,8 @@ int main(int argc, char** argv) {
     // creates its ZeroMQ context.
     std::vector<EchoChild> children;
     std::vector<int> pipes;
-    for (std::size_t i = 0; i < 2 * options.placements.size(); ++i) {
+    constexpr std::size_t kPeersPerPlacement = 3;  // ipc, tcp, shm
+    for (std::size_t i = 0; i < kPeersPerPlacement * options.placements.size(); ++i) {
       children.push_back(EchoChild::fork(pipes));
       pipes.push_back(children.back().writeFd());
     }
@@ -813,14 +934,18 @@ int main(int argc, char** argv) {
       const auto placement = options.placements[p];
       if (placement == Placement::packed) cosim::util::restrictProcessTo({cosim::util::currentCpu()});
       floorUs[placement] = socketpairFloorUs(options.quick ? 200 : 2000);
+      auto* peers = &children[kPeersPerPlacement * p];
       for (const auto kind : {wire::TransportOptions::Kind::ipc, wire::TransportOptions::Kind::tcp}) {
-        auto more = runTransport(kind, children[2 * p + (kind == wire::TransportOptions::Kind::tcp ? 1 : 0)],
-                                 options, placement);
+        auto more = runTransport(kind, peers[kind == wire::TransportOptions::Kind::tcp ? 1 : 0], options, placement);
+        rows.insert(rows.end(), more.begin(), more.end());
+      }
+      if (options.experiment.empty()) {
+        auto more = runShared(peers[2], options, placement);
         rows.insert(rows.end(), more.begin(), more.end());
       }
     }
 
-    const auto allMet = printTable(rows);
+    const auto allMet = printTable(rows, floorUs);
     std::cout << "\nkernel floor, 8-byte socketpair ping-pong without ZeroMQ, median:";
     for (const auto& [placement, us] : floorUs)
       std::cout << " " << placementName(placement) << " " << std::fixed << std::setprecision(1) << us << " us";
@@ -830,7 +955,9 @@ int main(int argc, char** argv) {
       std::cout << "targets: not judged in experiments\n";
     } else {
       std::cout << "targets (ipc: " << sizeLabel(kSmallMaxBytes) << " and less, median <= " << kSmallIpcMedianUs
-                << " us; " << sizeLabel(kBulkMinBytes) << ", >= " << kBulkGBps << " GB/s):";
+                << " us; " << sizeLabel(kBulkMinBytes) << ", >= " << kBulkGBps << " GB/s; shm: " << sizeLabel(kSmallMaxBytes)
+                << " and less, median <= " << kSmallShmFloorFactor << " x the kernel floor; " << sizeLabel(kBulkMinBytes)
+                << ", >= " << kBulkShmGBps << " GB/s):";
       for (const auto& [placement, met] : allMet) {
         std::cout << " " << placementName(placement) << " " << (met ? "all met" : "some MISSED");
         anyMet = anyMet || met;

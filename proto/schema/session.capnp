@@ -10,8 +10,8 @@ using Data = import "data.capnp";
 using Gmh = import "gmh.capnp";
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 4;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt;
-                                  # 3: adoptCells, cellsAdopted; 4: Setup.pool
+const protocolMinor :UInt16 = 5;  # 1: Advance.wantCriticalDt; 2: Advanced.aheadSeconds, aheadStartedAt;
+                                  # 3: adoptCells, cellsAdopted; 4: Setup.pool; 5: Welcome.dataSegment
 
 struct Envelope {
   seq @0 :UInt64;          # sender's sequence number (requests and replies)
@@ -54,6 +54,12 @@ struct Welcome {
   protocolMinor @1 :UInt16;
   heartbeatIntervalS @2 :Float64;
   heartbeatTimeoutS @3 :Float64;
+  # Shared-memory data path (capability shm-data, docs/protocol.md): when set,
+  # every later request and reply travels through this segment file, and the
+  # solver rings the coupler's doorbell file after each reply.
+  dataSegment @4 :Text;
+  doorbell @5 :Text;
+  spinS @6 :Float64;         # how long a waiting end busy-waits before sleeping
 }
 
 struct Setup {

@@ -37,11 +37,17 @@ std::string connectableEndpoint(const std::string& bound) {
   return bound;
 }
 
+std::string thisHostName() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof(host) - 1) != 0) return {};
+  return host;
+}
+
 std::string connectableFromAnyHost(const std::string& bound) {
   const std::string wildcard = "tcp://0.0.0.0:";
   if (bound.rfind(wildcard, 0) != 0) return bound;
-  char host[256] = {};
-  if (::gethostname(host, sizeof(host) - 1) != 0 || host[0] == '\0') return connectableEndpoint(bound);
+  const std::string host = thisHostName();
+  if (host.empty()) return connectableEndpoint(bound);
   return "tcp://" + std::string(host) + ":" + bound.substr(wildcard.size());
 }
 

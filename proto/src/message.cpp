@@ -23,13 +23,15 @@ constexpr std::uint64_t kTraversalFactor = 64;
 constexpr std::uint64_t kTraversalFloorWords = 1u << 20;
 
 void releaseBuilder(void* /*data*/, void* hint) {
-  delete static_cast<std::shared_ptr<PooledMessageBuilder>*>(hint);
+  delete static_cast<std::shared_ptr<capnp::MessageBuilder>*>(hint);
 }
 
 }  // namespace
 
 OutMessage::OutMessage(std::size_t firstSegmentWords)
     : builder_(std::make_shared<PooledMessageBuilder>(firstSegmentWords)) {}
+
+OutMessage::OutMessage(std::shared_ptr<capnp::MessageBuilder> builder) : builder_(std::move(builder)) {}
 
 proto::Envelope::Builder OutMessage::envelope() {
   return builder_->getRoot<proto::Envelope>();
@@ -48,7 +50,7 @@ std::vector<zmq::message_t> OutMessage::frames() const {
     auto bytes = segment.asBytes();
     // Zero-copy: ZeroMQ keeps the builder alive until it has sent this frame.
     out.emplace_back(const_cast<kj::byte*>(bytes.begin()), bytes.size(), &releaseBuilder,
-                     new std::shared_ptr<PooledMessageBuilder>(builder_));
+                     new std::shared_ptr<capnp::MessageBuilder>(builder_));
   }
   return out;
 }
@@ -72,8 +74,7 @@ InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
                            std::to_string(frames.size() - 1) + " arrived");
   InMessage in;
   in.frames_ = std::move(frames);
-  std::vector<kj::ArrayPtr<const capnp::word>> segments;
-  segments.reserve(count);
+  in.segments_.reserve(count);
   for (std::size_t i = 1; i < in.frames_.size(); ++i) {
     auto& frame = in.frames_[i];
     if (frame.size() == 0 || frame.size() % sizeof(capnp::word) != 0)
@@ -89,25 +90,40 @@ InMessage InMessage::decode(std::vector<zmq::message_t>&& frames) {
       data = copy.get();
       in.realigned_.push_back(std::move(copy));
     }
-    segments.emplace_back(data, words);
-    in.bytes_ += frame.size();
+    in.segments_.emplace_back(data, words);
   }
+  in.readSegments();
+  return in;
+}
+
+InMessage InMessage::fromSegments(std::vector<kj::ArrayPtr<const capnp::word>>&& segments,
+                                  std::shared_ptr<void> hold) {
+  if (segments.empty()) throw MalformedMessage("empty message");
+  InMessage in;
+  in.hold_ = std::move(hold);
+  in.segments_ = std::move(segments);
+  in.readSegments();
+  return in;
+}
+
+void InMessage::readSegments() {
+  bytes_ = 0;
+  for (const auto& s : segments_) bytes_ += s.size() * sizeof(capnp::word);
   capnp::ReaderOptions options;
-  const std::uint64_t totalWords = in.bytes_ / sizeof(capnp::word);
+  const std::uint64_t totalWords = bytes_ / sizeof(capnp::word);
   options.traversalLimitInWords = std::max<std::uint64_t>(kTraversalFloorWords, totalWords * kTraversalFactor);
   try {
-    in.reader_ = std::make_unique<capnp::SegmentArrayMessageReader>(
-        kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>>(segments.data(), segments.size()),
-        options);
-    in.root_ = in.reader_->getRoot<proto::Envelope>();
+    // The reader keeps a pointer to the segment table: segments_ lives as long.
+    reader_ = std::make_unique<capnp::SegmentArrayMessageReader>(
+        kj::ArrayPtr<const kj::ArrayPtr<const capnp::word>>(segments_.data(), segments_.size()), options);
+    root_ = reader_->getRoot<proto::Envelope>();
     // Walk every pointer once now, so that later reads cannot fail halfway
     // through a request's handling.
-    (void)in.root_.totalSize();
-    (void)in.root_.getBody().which();
+    (void)root_.totalSize();
+    (void)root_.getBody().which();
   } catch (const kj::Exception& e) {
     throw MalformedMessage(std::string("not a valid Envelope: ") + e.getDescription().cStr());
   }
-  return in;
 }
 
 void keepLargeBuffersOnHeap() {

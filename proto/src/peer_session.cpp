@@ -1,14 +1,27 @@
 #include "cosim/wire/peer_session.hpp"
 
+#include <sys/resource.h>
+#include <sys/statfs.h>
+
 #include <cstdio>
 
+#include <algorithm>
+#include <filesystem>
+
 #include "cosim/wire/clock.hpp"
+#include "cosim/wire/endpoint.hpp"
 #include "cosim/wire/log.hpp"
 
 namespace cosim::wire {
 namespace {
 using Which = proto::Envelope::Body::Which;
 constexpr const char* kHeartbeatSuffix = "#hb";
+constexpr const char* kShmCapability = "shm-data";
+// While replies come through shared memory the coupler sleeps on its doorbell
+// and looks at the socket (heartbeats, hellos) at least this often.
+constexpr std::chrono::milliseconds kSocketLookMs{10};
+// ... and while some pending reply comes by ZeroMQ, it looks at the lanes this often.
+constexpr std::chrono::milliseconds kLaneLookMs{1};
 
 std::string seconds(double s) {
   char buf[32];
@@ -34,6 +47,31 @@ Which answerTo(Which request) {
     case Which::ADOPT_CELLS: return Which::CELLS_ADOPTED;
     default: return Which::ERROR;
   }
+}
+
+/// The name of the network file system `dir` is on; empty for a local one.
+std::string networkFileSystem(const std::string& dir) {
+  struct statfs st {};
+  if (::statfs(dir.c_str(), &st) != 0) return {};
+  switch (static_cast<unsigned long>(st.f_type)) {
+    case 0x6969: return "NFS";
+    case 0xFF534D42: case 0xFE534D42: return "CIFS/SMB";
+    case 0x0BD00BD0: return "Lustre";
+    case 0x47504653: return "GPFS";
+    case 0x013111A8: return "IBRIX";
+    case 0x00C36400: return "CephFS";
+    case 0x65735546: return "a FUSE file system";
+    default: return {};
+  }
+}
+
+/// Both lanes of every solver are mapped in the coupler: under an address
+/// space limit (ulimit -v, which solvers inherit) a lane takes at most a
+/// sixteenth of it, a solver's two an eighth.
+std::uint64_t laneBytesWithin(std::uint64_t laneBytes) {
+  struct rlimit limit {};
+  if (::getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return laneBytes;
+  return std::max<std::uint64_t>(std::uint64_t{1} << 20, std::min<std::uint64_t>(laneBytes, limit.rlim_cur / 16));
 }
 
 OutMessage errorMessage(proto::Error::Code code, const std::string& text, std::uint64_t replyTo) {
@@ -214,10 +252,82 @@ void PeerSession::pump(std::chrono::milliseconds timeout) {
   sendHeartbeats();
   const double untilBeat = std::max(0.0, nextHeartbeat_ - monotonicSeconds());
   auto wait = std::min(timeout, std::chrono::milliseconds(static_cast<long>(untilBeat * 1000.0) + 1));
-  for (auto r = socket_.receive(wait); r; r = socket_.receive(std::chrono::milliseconds(0)))
-    take(std::move(*r));
+  receiveSome(wait);
   checkLiveness();
   if (watchdog_) watchdog_();
+}
+
+void PeerSession::receiveSome(std::chrono::milliseconds wait) {
+  using std::chrono::milliseconds;
+  if (!doorbell_) {
+    for (auto r = socket_.receive(wait); r; r = socket_.receive(milliseconds(0))) take(std::move(*r));
+    return;
+  }
+  bool zmqPending = false;
+  for (const auto& [name, p] : peers_) zmqPending = zmqPending || (!p.link && !p.deadlines.empty());
+  if (zmqPending) {
+    if (auto r = socket_.receive(std::min(wait, kLaneLookMs))) take(std::move(*r));
+  } else {
+    const double waitS = std::chrono::duration<double>(std::min(wait, kSocketLookMs)).count();
+    waitForDoorbell(doorbell_->bell(), options_.shm.spinS, waitS, [this] {
+      for (const auto& [name, p] : peers_)
+        if (p.link && p.link->hasIncoming()) return true;
+      return false;
+    });
+  }
+  takeFromLanes();
+  for (auto r = socket_.receive(milliseconds(0)); r; r = socket_.receive(milliseconds(0))) take(std::move(*r));
+}
+
+void PeerSession::takeFromLanes() {
+  for (auto& [name, p] : peers_) {
+    if (!p.link) continue;
+    while (auto item = p.link->take()) {
+      if (item->kind == LaneItem::Kind::onZmq) continue;  // the socket has it (drained next)
+      if (!p.linkConfirmed) {
+        p.link->unlinkFile();  // mapped on both ends now: nothing to clean up on any exit
+        p.linkConfirmed = true;
+      }
+      Received r;
+      r.identity = name;
+      r.bytes = item->bytes;
+      if (item->kind == LaneItem::Kind::malformed) r.error = "in shared memory: " + item->error;
+      else r.message = std::move(item->message);
+      take(std::move(r));
+    }
+  }
+}
+
+std::string PeerSession::shmObstacle(const Peer& p) const {
+  if (options_.shm.directory.empty()) return "the run has no directory for segments";
+  if (const std::string fs = networkFileSystem(options_.shm.directory); !fs.empty())
+    return "the run directory is on " + fs + ", whose shared mappings the file server would see every write of";
+  const auto& caps = p.info.capabilities;
+  if (std::find(caps.begin(), caps.end(), kShmCapability) == caps.end())
+    return "its binary does not offer '" + std::string(kShmCapability) + "'";
+  if (p.info.host != thisHostName())
+    return "it runs on host '" + p.info.host + "', the coupler on '" + thisHostName() + "'";
+  return {};
+}
+
+bool PeerSession::offerSharedMemory(const std::string& name, Peer& p) {
+  const auto mode = options_.shm.mode;
+  if (mode == ShmOptions::Mode::zmq) return false;
+  std::string why = shmObstacle(p);
+  if (why.empty()) {
+    try {
+      if (!doorbell_) doorbell_ = std::make_unique<CouplerDoorbell>(options_.shm.directory + "/doorbell");
+      p.link = ShmLink::create(options_.shm.directory + "/" + name, laneBytesWithin(options_.shm.laneBytes),
+                               *doorbell_);
+      return true;
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+  }
+  if (mode == ShmOptions::Mode::shm)
+    fault(name, "cannot use shared memory (transport.data: shm): " + why);
+  log::debug("peer '" + name + "' talks over ZeroMQ: " + why);
+  return false;
 }
 
 void PeerSession::awaitHellos(const std::vector<std::string>& expected, double timeoutS) {
@@ -244,6 +354,11 @@ void PeerSession::welcome(const std::string& peer) {
   w.setProtocolMinor(proto::PROTOCOL_MINOR);
   w.setHeartbeatIntervalS(options_.heartbeatIntervalS);
   w.setHeartbeatTimeoutS(options_.heartbeatTimeoutS);
+  if (offerSharedMemory(peer, p)) {
+    w.setDataSegment(p.link->path());
+    w.setDoorbell(doorbell_->path());
+    w.setSpinS(options_.shm.spinS);
+  }
   socket_.send(peer, m);
   p.welcomed = true;
   p.lastHeardAt = monotonicSeconds();
@@ -260,13 +375,20 @@ std::uint64_t PeerSession::request(const std::string& peer, OutMessage& message,
   env.setSeq(seq);
   env.setReplyTo(0);
   const std::string kind = bodyName(env.asReader());
-  if (!socket_.send(peer, message)) fault(peer, "cannot send '" + kind + "': not connected", true);
+  // A message that is not in the peer's lane follows its "on ZeroMQ" descriptor there.
+  if ((!p.link || !p.link->post(message)) && !socket_.send(peer, message))
+    fault(peer, "cannot send '" + kind + "': not connected", true);
   p.traffic.messagesSent++;
   p.traffic.bytesSent += message.sizeInBytes();
   p.deadlines[seq] = monotonicSeconds() + (timeoutS > 0 ? timeoutS : options_.requestTimeoutS);
   p.kinds[seq] = kind;
   p.answers[seq] = answerTo(env.getBody().which());
   return seq;
+}
+
+OutMessage PeerSession::message(const std::string& peer, std::size_t firstSegmentWords) {
+  const Peer& p = peerRef(peer);
+  return p.link ? p.link->message(firstSegmentWords) : OutMessage(firstSegmentWords);
 }
 
 Reply PeerSession::awaitReply(const std::string& peer, std::uint64_t seq) {
@@ -322,7 +444,7 @@ void PeerSession::shutdownAll(const std::string& reason, double timeoutS, const 
   std::vector<std::pair<std::string, std::uint64_t>> pending;
   for (auto& [name, p] : peers_) {
     if (!p.welcomed || skip.count(name)) continue;
-    OutMessage m(64);
+    OutMessage m = message(name, 64);
     m.envelope().getBody().initShutdown().setReason(reason);
     try {
       pending.emplace_back(name, request(name, m, timeoutS));
@@ -335,8 +457,7 @@ void PeerSession::shutdownAll(const std::string& reason, double timeoutS, const 
     for (const auto& [name, seq] : pending) all = all && peers_[name].replies.count(seq);
     if (all) break;
     try {
-      for (auto r = socket_.receive(std::chrono::milliseconds(50)); r; r = socket_.receive(std::chrono::milliseconds(0)))
-        take(std::move(*r));
+      receiveSome(std::chrono::milliseconds(50));
     } catch (const PeerFault& e) {
       log::warn(e.what());
     }

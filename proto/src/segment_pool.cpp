@@ -97,6 +97,11 @@ PooledMessageBuilder::PooledMessageBuilder(std::size_t firstSegmentWords, Segmen
 
 PooledMessageBuilder::PayloadScope::PayloadScope(std::size_t words) { t_payloadWords = words; }
 PooledMessageBuilder::PayloadScope::~PayloadScope() { t_payloadWords = 0; }
+bool PooledMessageBuilder::PayloadScope::announces(std::size_t minimumSize) {
+  // The announced payload's list plus the one-word landing pad of the far
+  // pointer to it (Cap'n Proto writes that word, the caller every other).
+  return t_payloadWords >= kOwnSegmentWords && minimumSize == t_payloadWords + 1;
+}
 
 PooledMessageBuilder::~PooledMessageBuilder() {
   // What the arena wrote into each segment; the rest is still zero.
@@ -110,9 +115,7 @@ PooledMessageBuilder::~PooledMessageBuilder() {
 }
 
 kj::ArrayPtr<capnp::word> PooledMessageBuilder::allocateSegment(unsigned minimumSize) {
-  // The announced payload's list plus the one-word landing pad of the far
-  // pointer to it (Cap'n Proto writes that word, the caller every other).
-  if (t_payloadWords >= kOwnSegmentWords && minimumSize == t_payloadWords + 1) {
+  if (PayloadScope::announces(minimumSize)) {
     segments_.push_back(pool_.acquireForPayload(minimumSize));
     return {segments_.back().words, minimumSize};
   }

@@ -14,7 +14,9 @@
 #include <thread>
 
 #include "cosim/wire/clock.hpp"
+#include "cosim/wire/endpoint.hpp"
 #include "cosim/wire/log.hpp"
+#include "cosim/wire/shm_link.hpp"
 #include "cosim/wire/sockets.hpp"
 
 namespace cosim::wire {
@@ -31,7 +33,7 @@ std::string SetupContext::baseDir() const {
 }
 
 const std::vector<std::string>& baseCapabilities() {
-  static const std::vector<std::string> caps{"setup", "advance", "fields", "checkpoint", "restore"};
+  static const std::vector<std::string> caps{"setup", "advance", "fields", "checkpoint", "restore", "shm-data"};
   return caps;
 }
 
@@ -48,11 +50,6 @@ void fillEnergies(capnp::List<proto::NamedValue>::Builder list, const NamedValue
   }
 }
 
-std::string hostName() {
-  char buf[256] = {};
-  ::gethostname(buf, sizeof(buf) - 1);
-  return buf;
-}
 }  // namespace
 
 namespace {
@@ -78,6 +75,8 @@ struct SolverHost::Impl {
   Solver& solver;
   HostOptions options;
   DealerSocket data;
+  std::shared_ptr<ShmLink> link;  // the shared-memory data path, when the welcome offers one
+  double spinS = 0.0;
   std::atomic<double> lastFromCoupler{monotonicSeconds()};
   std::atomic<bool> busy{false};
   std::atomic<bool> stopping{false};
@@ -97,7 +96,7 @@ struct SolverHost::Impl {
   }
 
   OutMessage reply(std::uint64_t replyTo, std::size_t words = 256) {
-    OutMessage m(words);
+    OutMessage m = link ? link->message(words) : OutMessage(words);
     auto env = m.envelope();
     env.setSeq(++outSeq);
     env.setReplyTo(replyTo);
@@ -111,7 +110,43 @@ struct SolverHost::Impl {
     e.setCode(code);
     e.setMessage(text);
     e.setFatal(fatal);
-    data.send(m);
+    send(m);
+  }
+
+  /// Through the lane when there is one; a message that is not in it follows
+  /// its "on ZeroMQ" descriptor on the socket.
+  void send(const OutMessage& m) {
+    if (!link || !link->post(m)) data.send(m);
+  }
+
+  /// Maps the segment the welcome names; false (told to the coupler) when it cannot.
+  bool mapDataSegment(proto::Welcome::Reader w) {
+    if (!w.hasDataSegment() || w.getDataSegment().size() == 0) return true;
+    try {
+      link = ShmLink::open(w.getDataSegment(), w.getDoorbell());
+      spinS = w.getSpinS();
+      return true;
+    } catch (const std::exception& e) {
+      const std::string why = std::string("cannot use the shared-memory data path: ") + e.what();
+      log::error(why);
+      sendError(0, proto::Error::Code::UNSUPPORTED, why, true);
+      return false;
+    }
+  }
+
+  /// The next message from the coupler within about 50 ms, by its lane.
+  std::optional<Received> receiveShared() {
+    waitForDoorbell(link->incomingBell(), spinS, 0.05, [this] { return link->hasIncoming(); });
+    if (auto item = link->take()) {
+      if (item->kind == LaneItem::Kind::message) return Received{{}, std::move(item->message), {}, item->bytes};
+      if (item->kind == LaneItem::Kind::malformed)
+        return Received{{}, std::nullopt, "in shared memory: " + item->error, item->bytes};
+      // The next request travels on the socket: wait for it there, in order.
+      while (!couplerLost && !stopping)
+        if (auto r = data.receive(milliseconds(50))) return r;
+      return std::nullopt;
+    }
+    return data.receive(milliseconds(0));  // what the coupler sends besides requests (errors)
   }
 
   void sendHello() {
@@ -126,7 +161,7 @@ struct SolverHost::Impl {
     h.setVersion(info.version);
     h.setInstance(options.instance);
     h.setPid(static_cast<std::uint32_t>(::getpid()));
-    h.setHost(hostName());
+    h.setHost(thisHostName());
     auto caps = h.initCapabilities(static_cast<unsigned>(info.capabilities.size()));
     for (unsigned i = 0; i < info.capabilities.size(); ++i) caps.set(i, info.capabilities[i]);
     data.send(m);
@@ -153,7 +188,7 @@ struct SolverHost::Impl {
         }
         if (w.getHeartbeatIntervalS() > 0) options.heartbeatIntervalS = w.getHeartbeatIntervalS();
         if (w.getHeartbeatTimeoutS() > 0) options.heartbeatTimeoutS = w.getHeartbeatTimeoutS();
-        return true;
+        return mapDataSegment(w);
       }
       if (env.getBody().which() == Which::ERROR) {
         log::error(std::string("the coupler refused this solver: ") +
@@ -252,7 +287,7 @@ struct SolverHost::Impl {
         auto done = m.envelope().getBody().initCheckpointDone();
         done.setPath(path);
         done.setBytes(bytes);
-        return data.send(m);
+        return send(m);
       }
       case Which::RESTORE: {
         requireSetup(env);
@@ -261,18 +296,18 @@ struct SolverHost::Impl {
         auto done = m.envelope().getBody().initRestored();
         done.setTime(solver.time());
         done.setStep(solver.step());
-        return data.send(m);
+        return send(m);
       }
       case Which::ADOPT_CELLS: {
         requireSetup(env);
         auto m = reply(seq, solver.outputWordsHint());
         solver.adoptCells(body.getAdoptCells(), m.envelope().getBody().initCellsAdopted().initOutputs());
-        return data.send(m);
+        return send(m);
       }
       case Which::SHUTDOWN: {
         auto m = reply(seq);
         m.envelope().getBody().setShutdownDone();
-        data.send(m);
+        send(m);
         stopping = true;
         return;
       }
@@ -295,7 +330,7 @@ struct SolverHost::Impl {
     done.setCriticalDt(solver.criticalDt());
     const auto energies = solver.energies();  // may cost an element loop: once
     fillEnergies(done.initEnergies(static_cast<unsigned>(energies.size())), energies);
-    data.send(m);
+    send(m);
   }
 
   void onAdvance(std::uint64_t seq, proto::Advance::Reader a) {
@@ -323,7 +358,7 @@ struct SolverHost::Impl {
     done.setComputeStartedAt(start);
     done.setAheadSeconds(aheadSeconds);
     done.setAheadStartedAt(aheadStartedAt);
-    data.send(m);
+    send(m);
     workAhead();
   }
 
@@ -350,7 +385,7 @@ struct SolverHost::Impl {
     auto out = m.envelope().getBody().initFields();
     solver.fields(names, out.initData());
     out.setTime(solver.time());
-    data.send(m);
+    send(m);
   }
 
   int run() {
@@ -359,7 +394,7 @@ struct SolverHost::Impl {
     lastFromCoupler = monotonicSeconds();
     heartbeat = std::thread([this] { heartbeatLoop(); });
     while (!stopping) {
-      auto r = data.receive(milliseconds(50));
+      auto r = link ? receiveShared() : data.receive(milliseconds(50));
       if (couplerLost) return 4;
       if (!r) continue;
       lastFromCoupler = monotonicSeconds();

@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <nlohmann/json.hpp>
 
@@ -89,6 +91,45 @@ TEST(SurfaceCouplingRun, AResumedRunReportsTheUninterruptedRunsError) {
   EXPECT_GT(whole["errors"][0]["value"].get<double>(), 0.0);
   EXPECT_EQ(part["errors"], whole["errors"]);
   EXPECT_EQ(part["figures"], whole["figures"]);
+}
+
+/// Every dataset under `path` of a run's coupler.h5, by its path, but the
+/// timings (compute_s, communication_s: wall-clock, never twice the same).
+void collectSeries(const io::H5File& h5, const std::string& path, std::map<std::string, std::vector<double>>& out) {
+  const auto leaf = path.substr(path.rfind('/') + 1);
+  if (leaf == "compute_s" || leaf == "communication_s") return;
+  try {
+    out[path] = h5.readArray(path);
+  } catch (const std::exception&) {  // a group
+    for (const auto& child : h5.children(path)) collectSeries(h5, path + "/" + child, out);
+  }
+}
+
+std::map<std::string, std::vector<double>> seriesOf(const std::filesystem::path& run) {
+  std::map<std::string, std::vector<double>> series;
+  collectSeries(io::H5File::openReadOnly(run / "coupler.h5"), "/series", series);
+  return series;
+}
+
+// The data path is the transport's business: C1's every series, bit for bit,
+// whether the beam and the particles talk through shared memory or sockets.
+TEST(SurfaceCouplingRun, TheSharedMemoryPathGivesTheSocketPathsSeriesToTheBit) {
+  C1Run shm, zmq;
+  const auto a = shm.run({"--set", "transport={data: shm}"});
+  ASSERT_EQ(a.code, 0) << a.out << a.err;
+  const auto b = zmq.run({"--set", "transport={data: zmq}"});
+  ASSERT_EQ(b.code, 0) << b.out << b.err;
+  const auto shmReport = shm.report(), zmqReport = zmq.report();
+  for (const auto& peer : shmReport["peers"]) EXPECT_EQ(peer["data_path"], "shm");
+  for (const auto& peer : zmqReport["peers"]) EXPECT_EQ(peer["data_path"], "zmq");
+  const auto viaShm = seriesOf(shm.dir / "run"), viaZmq = seriesOf(zmq.dir / "run");
+  ASSERT_GT(viaShm.size(), 5u);
+  ASSERT_EQ(viaShm.size(), viaZmq.size());
+  for (const auto& [name, values] : viaShm) {
+    ASSERT_TRUE(viaZmq.count(name)) << name;
+    ASSERT_EQ(values.size(), viaZmq.at(name).size()) << name;
+    EXPECT_EQ(std::memcmp(values.data(), viaZmq.at(name).data(), values.size() * sizeof(double)), 0) << name;
+  }
 }
 
 TEST(SurfaceCouplingRun, PointFormWithParallelScheduleRuns) {

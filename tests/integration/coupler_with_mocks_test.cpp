@@ -10,6 +10,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
@@ -89,35 +90,107 @@ std::pair<double, double> expectedDigest(std::uint64_t seed, std::uint64_t excha
   return {static_cast<double>(fp >> 32), static_cast<double>(fp & 0xffffffffull)};
 }
 
-TEST_F(CouplerRun, ThousandExchangesAreBitForBit) {
-  SceneOptions o;
-  o.left = "{seed: 11, length: 1000, expect_seed: 22}";
-  o.right = "{seed: 22, length: 1000, expect_seed: 11}";
-  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000}";
-  const auto f = runCoupler(o);
-  ASSERT_EQ(f.code, 0) << f.err;
-  auto h5 = io::H5File::openReadOnly(runDir() / "coupler.h5");
+/// Each mock received, at every exchange, exactly the pattern its peer sent.
+void expectEveryExchangeBitForBit(const fs::path& run, std::uint64_t exchanges, std::size_t length) {
+  auto h5 = io::H5File::openReadOnly(run / "coupler.h5");
   const auto time = h5.readArray("/series/time");
-  ASSERT_EQ(time.size(), 1001u);  // setup + 1000 exchanges
-  EXPECT_DOUBLE_EQ(time.back(), 1.0);
+  ASSERT_EQ(time.size(), exchanges + 1);  // setup + exchanges
+  EXPECT_DOUBLE_EQ(time.back(), 1.0e-3 * static_cast<double>(exchanges));
   for (const auto& [name, peerSeed] : {std::pair{"left", 22}, std::pair{"right", 11}}) {
     const auto digest = h5.readArray(std::string("/series/") + name + "/digest");
     const auto mismatches = h5.readArray(std::string("/series/") + name + "/mismatches");
-    ASSERT_EQ(digest.size(), 2 * 1001u);
+    ASSERT_EQ(digest.size(), 2 * (exchanges + 1));
     EXPECT_EQ(digest[0], -1.0) << "nothing is received at setup";
-    for (std::uint64_t k = 1; k <= 1000; ++k) {
-      const auto [hi, lo] = expectedDigest(static_cast<std::uint64_t>(peerSeed), k - 1, 1000);
+    for (std::uint64_t k = 1; k <= exchanges; ++k) {
+      const auto [hi, lo] = expectedDigest(static_cast<std::uint64_t>(peerSeed), k - 1, length);
       ASSERT_EQ(digest[2 * k], hi) << name << " exchange " << k;
       ASSERT_EQ(digest[2 * k + 1], lo) << name << " exchange " << k;
       ASSERT_EQ(mismatches[k], 0.0) << name << " exchange " << k;
     }
   }
+}
+
+SceneOptions thousandExchanges(const std::string& data = "auto") {
+  SceneOptions o;
+  o.left = "{seed: 11, length: 1000, expect_seed: 22}";
+  o.right = "{seed: 22, length: 1000, expect_seed: 11}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000}";
+  o.transport = "{heartbeat_interval: 0.1, heartbeat_timeout: 1.0, request_timeout: 30, data: " + data + "}";
+  return o;
+}
+
+TEST_F(CouplerRun, ThousandExchangesAreBitForBit) {
+  const auto f = runCoupler(thousandExchanges());
+  ASSERT_EQ(f.code, 0) << f.err;
+  expectEveryExchangeBitForBit(runDir(), 1000, 1000);
   const auto r = report();
   EXPECT_EQ(r["status"], "completed");
   EXPECT_EQ(r["exchanges"], 1000);
   EXPECT_EQ(r["peers"].size(), 2u);
   EXPECT_GT(r["peers"][0]["bytes_sent"].get<double>(), 1000 * 1000 * 8.0);
   EXPECT_NE(f.out.find("run report: scene 'it' completed"), std::string::npos) << f.out;
+}
+
+// Peers on the coupler's host talk through shared memory unless the scene
+// says zmq; either way every byte arrives, and the run directory keeps no
+// segment: each is unlinked once its solver has mapped it, the rest at exit.
+TEST_F(CouplerRun, SharedMemoryAndSocketsCarryTheSameBitsAndLeaveNoSegmentBehind) {
+  for (const std::string data : {"auto", "zmq", "shm"}) {
+    const auto f = runCoupler(thousandExchanges(data));
+    ASSERT_EQ(f.code, 0) << data << ": " << f.err;
+    expectEveryExchangeBitForBit(runDir(), 1000, 1000);
+    const auto r = report();
+    for (const auto& peer : r["peers"])
+      EXPECT_EQ(peer["data_path"], data == "zmq" ? "zmq" : "shm") << data << ": " << peer["name"];
+    EXPECT_NE(f.out.find(data == "zmq" ? "MiB moved over zmq" : "MiB moved over shm"), std::string::npos) << f.out;
+    EXPECT_FALSE(fs::exists(runDir() / "shm")) << data;
+  }
+}
+
+// A solver binary without the capability keeps ZeroMQ beside one that has
+// it; a scene that insists on shared memory refuses it by name.
+TEST_F(CouplerRun, ASolverWithoutSharedMemoryTalksOverZeroMqUnlessTheSceneInsists) {
+  SceneOptions o = thousandExchanges();
+  o.leftExtra = "args: [--mock-capabilities, 'setup,advance,fields,checkpoint,restore,arrays']";
+  const auto f = runCoupler(o);
+  ASSERT_EQ(f.code, 0) << f.err;
+  expectEveryExchangeBitForBit(runDir(), 1000, 1000);
+  std::map<std::string, std::string> paths;
+  const auto r = report();
+  for (const auto& peer : r["peers"]) paths[peer["name"].get<std::string>()] = peer["data_path"].get<std::string>();
+  EXPECT_EQ(paths["left"], "zmq");
+  EXPECT_EQ(paths["right"], "shm");
+
+  SceneOptions insists = thousandExchanges("shm");
+  insists.leftExtra = o.leftExtra;
+  const auto refused = runCoupler(insists);
+  EXPECT_NE(refused.code, 0);
+  EXPECT_NE(refused.err.find("peer 'left'"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("transport.data: shm"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("does not offer 'shm-data'"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(runDir() / "shm"));
+}
+
+// A coupler killed with SIGKILL cannot remove what it created; the next run
+// in its directory clears it and runs.
+TEST_F(CouplerRun, AKilledCouplersSegmentsDoNotTripTheNextRun) {
+  SceneOptions o = thousandExchanges();
+  o.left = "{seed: 11, length: 1000, expect_seed: 22, compute_seconds: 0.005}";
+  o.schedule = "{kind: lockstep, dt: 1.0e-3, exchanges: 1000000}";
+  Subprocess coupler({binary("coupler"), "run", writeScene(o), "--no-progress"});
+  for (int i = 0; i < 200 && !fs::exists(runDir() / "coupler.h5"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  coupler.signal(SIGKILL);
+  coupler.wait(5);
+  for (int i = 0; i < 200 && !processesMentioning(dir_.string()).empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_TRUE(fs::exists(runDir() / "shm" / "doorbell"));
+  EXPECT_FALSE(fs::exists(runDir() / "shm" / "left")) << "a mapped segment keeps no name";
+  const auto f = runCoupler(thousandExchanges());
+  ASSERT_EQ(f.code, 0) << f.err;
+  expectEveryExchangeBitForBit(runDir(), 1000, 1000);
+  EXPECT_FALSE(fs::exists(runDir() / "shm"));
 }
 
 TEST_F(CouplerRun, PackedPlacementPutsEveryStartedPeerOnTheNamedCpu) {

@@ -65,7 +65,7 @@ class ScriptedSolver {
 class PeerSessionContract : public ::testing::Test {
  protected:
   PeerSessionContract()
-      : endpoint_(freshEndpoint()), router_(endpoint_), session_(router_, LinkOptions{0.1, 5.0, 5.0}),
+      : endpoint_(freshEndpoint()), router_(endpoint_), session_(router_, LinkOptions{0.1, 5.0, 5.0, {}}),
         solver_(endpoint_, "beam") {}
 
   /// Hello, welcome and one advance request the solver has received; its seq.
@@ -186,7 +186,7 @@ TEST_F(PeerSessionContract, ADroppedPeerLeavesTheOthersRepliesToBeTaken) {
   // beam answers its advance; cells falls silent past the heartbeat timeout.
   // The fault names cells as gone, beam's reply stays with the session, and
   // once cells is dropped nothing it sends later matters.
-  LinkOptions link{0.05, 0.5, 5.0};
+  LinkOptions link{0.05, 0.5, 5.0, {}};
   PeerSession session(router_, link);
   ScriptedSolver cells(endpoint_, "cells");
   solver_.hello(101);

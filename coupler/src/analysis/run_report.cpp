@@ -88,7 +88,7 @@ void RunReport::writeJson(const std::filesystem::path& path) const {
     j["peers"].push_back({{"name", p.name}, {"kind", p.kind}, {"version", p.version},
                           {"compute_s", p.computeS}, {"ahead_s", p.aheadS}, {"communication_s", p.communicationS},
                           {"messages_sent", p.messagesSent}, {"messages_received", p.messagesReceived},
-                          {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived},
+                          {"bytes_sent", p.bytesSent}, {"bytes_received", p.bytesReceived}, {"data_path", p.dataPath},
                           {"critical_dt_s", p.criticalDt}, {"critical_dt_min_s", p.minCriticalDt},
                           {"cpus", p.cpus}});
   if (host)
@@ -141,7 +141,7 @@ std::string RunReport::text() const {
     if (p.aheadS > 0.0) s << ", " << p.aheadS << " s of it worked ahead";
     s << "), communication " << p.communicationS << " s ("
       << 100.0 * p.communicationS / loop << " %), " << p.messagesSent << " requests, "
-      << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved" << (p.cpus.empty() ? "" : ", CPUs " + p.cpus)
+      << (p.bytesSent + p.bytesReceived) / 1048576.0 << " MiB moved over " << p.dataPath << (p.cpus.empty() ? "" : ", CPUs " + p.cpus)
       << "\n";
   }
   s << "  overhead      communication " << communicationS << " s + mapping = " << 100.0 * couplingOverheadShare()

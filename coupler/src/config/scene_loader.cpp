@@ -59,6 +59,12 @@ void readTransport(MapReader& m, Scene& scene) {
   l.heartbeatIntervalS = m.number("heartbeat_interval", 0.5, Range::positive());
   l.heartbeatTimeoutS = m.number("heartbeat_timeout", 10.0, Range::positive());
   l.requestTimeoutS = m.number("request_timeout", 3600.0, Range::positive());
+  const std::string data = m.choice("data", {"auto", "shm", "zmq"}, std::string("auto"));
+  l.shm.mode = data == "shm" ? wire::ShmOptions::Mode::shm
+               : data == "zmq" ? wire::ShmOptions::Mode::zmq
+                               : wire::ShmOptions::Mode::automatic;
+  l.shm.spinS = 1e-6 * m.number("shm_spin_us", 1e6 * l.shm.spinS, Range::closed(0.0, 1e6));
+  l.shm.laneBytes = static_cast<std::uint64_t>(m.integer("shm_lane_mib", 1024, 1, 1 << 20)) << 20;
   scene.connectTimeoutS = m.number("connect_timeout", 30.0, Range::positive());
   if (l.heartbeatTimeoutS <= 2.0 * l.heartbeatIntervalS)
     m.error("heartbeat_timeout", "must be more than twice heartbeat_interval (" +

@@ -145,7 +145,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto& [name, plan] : plans) {
       if (lost_.count(name)) continue;
       auto& inputs = inputs_[name];
-      wire::OutMessage m(inputs.words());
+      wire::OutMessage m = session_->message(name, inputs.words());
       {
         ScopedTimer t(report_.mappingS);
         auto adv = m.envelope().getBody().initAdvance();
@@ -267,7 +267,7 @@ class CouplerRun final : public ExchangeDriver {
 
   std::uint64_t requestAdoption(const CellAdoption& a, const fs::path& checkpointDir) {
     const auto put = [](auto list, const auto& values) { std::copy(values.begin(), values.end(), wire::view(list).begin()); };
-    wire::OutMessage m(256 + a.ids.size() + 12 * a.jobs.size() * a.ids.size());
+    wire::OutMessage m = session_->message(a.adopter, 256 + a.ids.size() + 12 * a.jobs.size() * a.ids.size());
     auto adopt = m.envelope().getBody().initAdoptCells();
     adopt.setPath(fs::absolute(CheckpointStore::solverCheckpoint(checkpointDir, a.source)).string());
     put(adopt.initCellIds(static_cast<unsigned>(a.ids.size())), a.ids);
@@ -408,7 +408,7 @@ class CouplerRun final : public ExchangeDriver {
     std::vector<std::pair<std::string, std::uint64_t>> pending;
     std::set<std::string> owed;
     for (const auto* solver : activeSolvers()) {
-      wire::OutMessage m;
+      wire::OutMessage m = session_->message(solver->name, 256);
       m.envelope().getBody().initCheckpoint().setPath(
           fs::absolute(CheckpointStore::solverCheckpoint(dir, solver->name)).string());
       try {
@@ -426,7 +426,7 @@ class CouplerRun final : public ExchangeDriver {
     const auto& point = *resumeFrom_;
     std::vector<std::pair<std::string, std::uint64_t>> pending;
     for (const auto* solver : activeSolvers()) {
-      wire::OutMessage m;
+      wire::OutMessage m = session_->message(solver->name, 256);
       m.envelope().getBody().initRestore().setPath(
           fs::absolute(CheckpointStore::solverCheckpoint(point.dir, solver->name)).string());
       pending.emplace_back(solver->name, session_->request(solver->name, m));
@@ -597,7 +597,7 @@ class CouplerRun final : public ExchangeDriver {
     endpoint_ = socket_->endpoint();
     const auto connectTo =
         scene_.usesSlurm() ? wire::connectableFromAnyHost(endpoint_) : wire::connectableEndpoint(endpoint_);
-    session_.emplace(*socket_, scene_.link);
+    session_.emplace(*socket_, linkOptions());
     session_->setWatchdog([this] { watchdog(); });
     for (const auto* solver : activeSolvers()) {
       const auto& s = *solver;
@@ -624,6 +624,21 @@ class CouplerRun final : public ExchangeDriver {
   }
 
   fs::path serverKeyPath() const { return runDir_ / "coupler.pub"; }
+  fs::path shmDirectory() const { return runDir_ / "shm"; }
+
+  /// The scene's link, with the directory where shared-memory segments go:
+  /// emptied first, so that a run killed before it could remove its segments
+  /// leaves nothing in the way of the next.
+  wire::LinkOptions linkOptions() const {
+    auto link = scene_.link;
+    const auto dir = shmDirectory();
+    fs::remove_all(dir);
+    if (link.shm.mode == wire::ShmOptions::Mode::zmq) return link;
+    fs::create_directories(dir);
+    fs::permissions(dir, fs::perms::owner_all, fs::perm_options::replace);
+    link.shm.directory = dir.string();
+    return link;
+  }
 
   /// The CurveZMQ public key, readable by this user only: whoever holds it can talk to the run.
   void writeServerKey(const std::string& key) const {
@@ -686,7 +701,7 @@ class CouplerRun final : public ExchangeDriver {
     for (const auto* solver : activeSolvers()) {
       const auto& s = *solver;
       auto& inputs = inputs_[s.name];
-      wire::OutMessage m(scene_.text.size() / 8 + 256 + inputs.words());
+      wire::OutMessage m = session_->message(s.name, scene_.text.size() / 8 + 256 + inputs.words());
       fillSetup(m.envelope().getBody().initSetup(), scene_, s, inputs, runDir_, resumeFrom_.has_value());
       pending.emplace_back(s.name, session_->request(s.name, m));
     }
@@ -915,6 +930,7 @@ class CouplerRun final : public ExchangeDriver {
         t.messagesReceived = traffic.messagesReceived;
         t.bytesSent = traffic.bytesSent;
         t.bytesReceived = traffic.bytesReceived;
+        t.dataPath = session_->sharedMemory(name) ? "shm" : "zmq";
         report_.peers.push_back(t);
       }
     }
@@ -946,6 +962,8 @@ class CouplerRun final : public ExchangeDriver {
     if (report_.exitCode != kExitOk) log::error(report_.message);
     std::cout << report_.text() << std::flush;
     if (socket_) wire::removeIpcEndpoint(endpoint_);
+    std::error_code ignored;
+    fs::remove_all(shmDirectory(), ignored);  // what no solver mapped yet, and the doorbell
     return report_.exitCode;
   }
 

@@ -26,6 +26,9 @@ std::string connectableEndpoint(const std::string& boundEndpoint);
 /// host's name instead of the wildcard.
 std::string connectableFromAnyHost(const std::string& boundEndpoint);
 
+/// This host's name (gethostname), as a solver's hello names its host.
+std::string thisHostName();
+
 /// Removes an ipc socket file (and its private temp dir) after the run.
 void removeIpcEndpoint(const std::string& endpoint);
 

@@ -29,13 +29,16 @@ class OutMessage {
   /// firstSegmentWords sizes the first allocation; pass the expected payload
   /// size in 8-byte words to keep a large message in one segment.
   explicit OutMessage(std::size_t firstSegmentWords = 1024);
+  /// A message built by another kind of builder (a shared-memory lane's).
+  explicit OutMessage(std::shared_ptr<capnp::MessageBuilder> builder);
   proto::Envelope::Builder envelope();
+  capnp::MessageBuilder& builder() const { return *builder_; }
   /// The ZeroMQ frames that carry this message, sharing its memory.
   std::vector<zmq::message_t> frames() const;
   std::size_t sizeInBytes() const;
 
  private:
-  std::shared_ptr<PooledMessageBuilder> builder_;
+  std::shared_ptr<capnp::MessageBuilder> builder_;
 };
 
 /// A received Envelope; keeps the frames it points into alive.
@@ -47,6 +50,10 @@ class InMessage {
   /// Decodes frames (header + segments). Throws MalformedMessage with a
   /// description of what is wrong; never reads out of bounds.
   static InMessage decode(std::vector<zmq::message_t>&& frames);
+  /// Reads segments in place (a shared-memory lane's); `hold` lives as long
+  /// as the message and lets go of the memory when it is destroyed. Throws
+  /// MalformedMessage like decode.
+  static InMessage fromSegments(std::vector<kj::ArrayPtr<const capnp::word>>&& segments, std::shared_ptr<void> hold);
 
   /// Writes the envelope to a file in Cap'n Proto's standard stream format
   /// (what `capnp decode` reads), e.g. to keep a solver's last reply in a checkpoint.
@@ -56,7 +63,11 @@ class InMessage {
 
  private:
   InMessage() = default;
+  /// Reads the Envelope of segments_ (bytes_ set); throws MalformedMessage.
+  void readSegments();
   std::vector<zmq::message_t> frames_;
+  std::vector<kj::ArrayPtr<const capnp::word>> segments_;
+  std::shared_ptr<void> hold_;
   std::vector<std::unique_ptr<capnp::word[]>> realigned_;
   kj::Array<capnp::word> fileWords_;
   std::unique_ptr<capnp::MessageReader> reader_;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cosim/wire/shm_link.hpp"
 #include "cosim/wire/sockets.hpp"
 
 namespace cosim::wire {
@@ -30,6 +31,7 @@ struct LinkOptions {
   double heartbeatIntervalS = 0.5;
   double heartbeatTimeoutS = 10.0;
   double requestTimeoutS = 3600.0;
+  ShmOptions shm;  // the data path of solvers on this host (no directory: ZeroMQ only)
 };
 
 /// A peer failed: died, fell silent, missed a deadline or answered with an
@@ -80,6 +82,11 @@ class PeerSession {
   void welcome(const std::string& peer);
   void refuse(const std::string& peer, const std::string& reason);
 
+  /// A message to build for `peer`: in its shared-memory lane when it has one.
+  OutMessage message(const std::string& peer, std::size_t firstSegmentWords = 1024);
+  /// Requests and replies of `peer` travel through shared memory.
+  bool sharedMemory(const std::string& peer) const { return peerRef(peer).link != nullptr; }
+
   /// Sends a request (sets seq), returns its seq. timeoutS <= 0: the default.
   std::uint64_t request(const std::string& peer, OutMessage& message, double timeoutS = 0.0);
   /// Waits for the reply to seq; an error reply throws PeerFault.
@@ -115,6 +122,8 @@ class PeerSession {
     std::map<std::uint64_t, proto::Envelope::Body::Which> answers;  // the reply kind each pending request wants
     std::map<std::uint64_t, Reply> replies;
     PeerTraffic traffic;
+    std::shared_ptr<ShmLink> link;  // the shared-memory data path, when welcomed onto it
+    bool linkConfirmed = false;     // the solver has answered through it (its file is unlinked)
   };
 
   Peer& peerRef(const std::string& name);
@@ -123,10 +132,18 @@ class PeerSession {
   void onHello(const std::string& name, InMessage&& message);
   void checkLiveness();
   void sendHeartbeats();
+  /// Takes in what arrives within `wait`, from the socket and the lanes.
+  void receiveSome(std::chrono::milliseconds wait);
+  void takeFromLanes();
+  /// Why `p` cannot use shared memory; empty when it can.
+  std::string shmObstacle(const Peer& p) const;
+  /// Creates p's segment when the scene and the peer allow; false for ZeroMQ.
+  bool offerSharedMemory(const std::string& name, Peer& p);
   [[noreturn]] void fault(const std::string& peer, const std::string& what, bool gone = false) const;
 
   RouterSocket& socket_;
   LinkOptions options_;
+  std::unique_ptr<CouplerDoorbell> doorbell_;  // created with the first shared-memory peer
   std::map<std::string, Peer> peers_;
   std::set<std::string> expected_;
   std::function<void()> watchdog_;

@@ -92,6 +92,8 @@ class PooledMessageBuilder final : public capnp::MessageBuilder {
    public:
     explicit PayloadScope(std::size_t words);
     ~PayloadScope();
+    /// Cap'n Proto asks, on this thread, for the announced payload's segment.
+    static bool announces(std::size_t minimumSize);
     PayloadScope(const PayloadScope&) = delete;
     PayloadScope& operator=(const PayloadScope&) = delete;
   };

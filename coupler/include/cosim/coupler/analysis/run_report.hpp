@@ -25,6 +25,7 @@ struct PeerTiming {
   std::uint64_t messagesReceived = 0;
   std::uint64_t bytesSent = 0;
   std::uint64_t bytesReceived = 0;
+  std::string dataPath = "zmq";  // where requests and replies travel: "shm" (shared memory) or "zmq"
   double criticalDt = 0.0;      // at setup
   double lastCriticalDt = 0.0;  // as last reported (series rows ask for it)
   double minCriticalDt = 0.0;   // the smallest nonzero one reported during the run
