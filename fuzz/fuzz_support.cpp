@@ -1,5 +1,6 @@
 #include "fuzz_support.hpp"
 
+#include <capnp/dynamic.h>
 #include <capnp/message.h>
 #include <unistd.h>
 
@@ -40,7 +41,29 @@ void removeScratchDir() {
   fs::remove_all(scratchDir(), ec);
 }
 
+void readValue(const capnp::DynamicValue::Reader& v, int depth);
+
+void readStruct(const capnp::DynamicStruct::Reader& s, int depth) {
+  if (depth > 64) return;
+  for (const auto field : s.getSchema().getFields())
+    if (s.has(field)) readValue(s.get(field), depth + 1);
+}
+
+void readValue(const capnp::DynamicValue::Reader& v, int depth) {
+  switch (v.getType()) {
+    case capnp::DynamicValue::TEXT: (void)v.as<capnp::Text>().size(); break;
+    case capnp::DynamicValue::DATA: (void)v.as<capnp::Data>().size(); break;
+    case capnp::DynamicValue::LIST:
+      for (const auto item : v.as<capnp::DynamicList>()) readValue(item, depth + 1);
+      break;
+    case capnp::DynamicValue::STRUCT: readStruct(v.as<capnp::DynamicStruct>(), depth); break;
+    default: break;  // numbers, bools, enums: read by get() already
+  }
+}
+
 }  // namespace
+
+void readEverywhere(proto::Envelope::Reader envelope) { readStruct(capnp::toDynamic(envelope), 0); }
 
 std::optional<std::string_view> inputText(const std::uint8_t* data, std::size_t size) {
   if (size > kMaxInputBytes) return std::nullopt;

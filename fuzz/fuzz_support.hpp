@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cosim/wire/solver.hpp"
+#include "session.capnp.h"
 
 namespace cosim::fuzz {
 
@@ -99,6 +100,10 @@ void resume(wire::Solver& solver, const std::uint8_t* data, std::size_t size, co
 void userError(const std::exception& e, std::initializer_list<std::string_view> files);
 /// The same for an error that need not name a file (one of a step after a restore).
 void userError(const std::exception& e);
+
+/// Reads every field of a message, everywhere, through Cap'n Proto's dynamic
+/// API: what any reader of a received message might touch.
+void readEverywhere(proto::Envelope::Reader envelope);
 
 /// Reports an outcome that is a finding (an exception that is no user error)
 /// and aborts, so that libFuzzer keeps the input.

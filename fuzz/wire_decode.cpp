@@ -7,7 +7,6 @@
 //
 // Input layout: byte 0 picks the number of frames (1 + b % 5); each frame but
 // the last takes a 2-byte little-endian length from the input, the last the rest.
-#include <capnp/dynamic.h>
 #include <kj/exception.h>
 #include <zmq.hpp>
 
@@ -16,29 +15,10 @@
 #include <vector>
 
 #include "cosim/wire/message.hpp"
+#include "fuzz_support.hpp"
 #include "fuzz_target.hpp"
 
 namespace {
-
-void readValue(const capnp::DynamicValue::Reader& v, int depth);
-
-void readStruct(const capnp::DynamicStruct::Reader& s, int depth) {
-  if (depth > 64) return;
-  for (const auto field : s.getSchema().getFields())
-    if (s.has(field)) readValue(s.get(field), depth + 1);
-}
-
-void readValue(const capnp::DynamicValue::Reader& v, int depth) {
-  switch (v.getType()) {
-    case capnp::DynamicValue::TEXT: (void)v.as<capnp::Text>().size(); break;
-    case capnp::DynamicValue::DATA: (void)v.as<capnp::Data>().size(); break;
-    case capnp::DynamicValue::LIST:
-      for (const auto item : v.as<capnp::DynamicList>()) readValue(item, depth + 1);
-      break;
-    case capnp::DynamicValue::STRUCT: readStruct(v.as<capnp::DynamicStruct>(), depth); break;
-    default: break;  // numbers, bools, enums: read by get() already
-  }
-}
 
 std::vector<zmq::message_t> frames(const std::uint8_t* data, std::size_t size) {
   std::vector<zmq::message_t> out;
@@ -63,7 +43,7 @@ std::vector<zmq::message_t> frames(const std::uint8_t* data, std::size_t size) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   try {
     const auto message = cosim::wire::InMessage::decode(frames(data, size));
-    readStruct(capnp::toDynamic(message.envelope()), 0);
+    cosim::fuzz::readEverywhere(message.envelope());
     (void)cosim::wire::bodyName(message.envelope());
   } catch (const cosim::wire::MalformedMessage&) {
   } catch (const kj::Exception&) {

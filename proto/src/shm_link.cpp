@@ -165,6 +165,18 @@ struct ShmLink::Impl {
 
   // The reader's position in the other lane.
   std::uint64_t consumed = 0;
+  std::uint64_t inWordsSeen = 0;  // the incoming lane's words the file held when last looked at
+
+  /// Words of the incoming lane the file holds (at least those seen before: it never shrinks).
+  std::uint64_t inLaneWordsInFile() {
+    if (inWordsSeen == laneWords) return inWordsSeen;
+    struct stat st {};
+    if (::fstat(fd, &st) != 0) return inWordsSeen;
+    const auto start = kHeaderBytes + in * laneWords * kWord;
+    const auto size = static_cast<std::uint64_t>(st.st_size);
+    inWordsSeen = std::max(inWordsSeen, size <= start ? 0 : std::min(laneWords, (size - start) / kWord));
+    return inWordsSeen;
+  }
 
   ~Impl() {
     if (header) ::munmap(header, mappedBytes);
@@ -446,6 +458,13 @@ std::optional<LaneItem> ShmLink::take() {
                 std::to_string(offset) + ") lies outside the lane's " + std::to_string(grown) + " words";
       break;
     }
+    // The writer's word is not enough: words beyond the end of the file
+    // would be a SIGBUS here, not a malformed message.
+    if (offset + words > l.inWordsSeen && offset + words > l.inLaneWordsInFile()) {
+      problem = "segment " + std::to_string(i) + " (" + std::to_string(words) + " words at " +
+                std::to_string(offset) + ") lies beyond the end of the segment file";
+      break;
+    }
     segments.emplace_back(l.arena(l.in) + offset, words);
     item.bytes += words * kWord;
   }
@@ -472,5 +491,7 @@ void ShmLink::unlinkFile() {
 }
 
 const std::string& ShmLink::path() const { return impl_->path; }
+void* ShmLink::mappedHeader() const { return impl_->header; }
+capnp::word* ShmLink::arena(unsigned lane) const { return impl_->arena(lane); }
 
 }  // namespace cosim::wire

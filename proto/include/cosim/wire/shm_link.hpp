@@ -102,6 +102,11 @@ class ShmLink {
   void unlinkFile();
   const std::string& path() const;
 
+  /// The mapped file (layout: shm_layout.hpp) and a lane's arena in it: what
+  /// tests and the fuzz target write to play a corrupt other end.
+  void* mappedHeader() const;
+  capnp::word* arena(unsigned lane) const;
+
   struct Impl;
 
  private:
