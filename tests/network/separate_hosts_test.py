@@ -93,8 +93,11 @@ class Hosts:
 
 def write_scene(path, cell, steps, on_loss, attach):
     text = scene(cell, 8, len(WORKERS), steps, on_loss)
+    # data: zmq: the namespaces share this machine's host name and file
+    # system, so the coupler would take them for its own host and move the
+    # data through shared memory; the links are what is under test.
     transport = ("transport: {kind: tcp, interface: 0.0.0.0, port: %d, curve: true, heartbeat_interval: 0.5, "
-                 "heartbeat_timeout: %g, connect_timeout: 60}\n" % (PORT, HEARTBEAT_TIMEOUT))
+                 "heartbeat_timeout: %g, connect_timeout: 60, data: zmq}\n" % (PORT, HEARTBEAT_TIMEOUT))
     text = re.sub(r"transport: \{[^}]*\}\n", transport if attach else
                   "transport: {heartbeat_interval: 0.5, heartbeat_timeout: %g, connect_timeout: 60}\n"
                   % HEARTBEAT_TIMEOUT, text)
