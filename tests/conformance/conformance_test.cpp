@@ -1,7 +1,9 @@
 // Protocol conformance of any solver binary:
-//   conformance_tests --solver PATH --scene SCENE.yaml --instance NAME [gtest flags]
+//   conformance_tests --solver PATH --scene SCENE.yaml --instance NAME [--data zmq|shm] [gtest flags]
 // The suite plays a minimal coupler written directly against the sockets
-// (independent of the coupler's own session code): it checks the handshake,
+// (independent of the coupler's own session code); with --data shm its
+// welcome offers a shared-memory segment and every request and reply goes
+// through the segment's lanes (docs/protocol.md). It checks the handshake,
 // setup, advance, fields, checkpoint/restore, error answers to bad requests,
 // shutdown, and that the solver leaves when its coupler falls silent.
 #include <capnp/serialize.h>
@@ -15,6 +17,7 @@
 
 #include "cosim/wire/arrays.hpp"
 #include "cosim/wire/clock.hpp"
+#include "cosim/wire/shm_link.hpp"
 #include "cosim/wire/sockets.hpp"
 #include "cosim/wire/solver.hpp"
 #include "subprocess.hpp"
@@ -31,6 +34,9 @@ struct Subject {
   std::string instance;
 };
 Subject g_subject;
+// The data path the suite speaks: "zmq" (the socket) or "shm" (the welcome
+// offers a shared-memory segment, and requests and replies go through it).
+std::string g_data = "zmq";
 
 std::string readFile(const std::string& path) {
   std::ifstream in(path);
@@ -56,8 +62,37 @@ class Conformance : public ::testing::Test {
       solver_->signal(SIGKILL);
       solver_->wait(5);
     }
+    link_.reset();
+    doorbell_.reset();
     router_.reset();
     fs::remove_all(dir_);
+  }
+
+  /// A request to build: in the segment's request lane on the shm path.
+  wire::OutMessage message() { return link_ ? link_->message(1024) : wire::OutMessage(); }
+
+  /// Offers the shared-memory data path in the welcome `w` (--data shm).
+  void offerSharedMemory(proto::Welcome::Builder w) {
+    if (g_data != "shm") return;
+    std::vector<std::string> caps;
+    for (auto c : hello_->envelope().getBody().getHello().getCapabilities()) caps.emplace_back(c.cStr());
+    ASSERT_NE(std::find(caps.begin(), caps.end(), "shm-data"), caps.end()) << "the solver does not offer shm-data";
+    doorbell_ = std::make_unique<wire::CouplerDoorbell>((dir_ / "doorbell").string());
+    link_ = wire::ShmLink::create((dir_ / "segment").string(), std::uint64_t{1} << 30, *doorbell_);
+    w.setDataSegment(link_->path());
+    w.setDoorbell(doorbell_->path());
+    w.setSpinS(20e-6);
+  }
+
+  /// The next reply in the reply lane, if one comes within 50 ms; a
+  /// malformed one is a failure, one announced as on ZeroMQ is for the socket.
+  std::optional<wire::InMessage> takeFromLane() {
+    wire::waitForDoorbell(doorbell_->bell(), 20e-6, 0.05, [this] { return link_->hasIncoming(); });
+    auto item = link_->take();
+    if (!item) return std::nullopt;
+    EXPECT_NE(item->kind, wire::LaneItem::Kind::malformed) << "the solver wrote a malformed reply: " << item->error;
+    if (item->kind != wire::LaneItem::Kind::message) return std::nullopt;
+    return std::move(item->message);
   }
 
   std::string solverErr() {
@@ -73,7 +108,10 @@ class Conformance : public ::testing::Test {
   std::optional<wire::InMessage> receive(double timeoutS) {
     const double end = monotonicSeconds() + timeoutS;
     while (monotonicSeconds() < end) {
-      auto r = router_->receive(std::chrono::milliseconds(50));
+      if (link_) {
+        if (auto m = takeFromLane()) return m;
+      }
+      auto r = router_->receive(std::chrono::milliseconds(link_ ? 0 : 50));
       if (!r) continue;
       if (r->identity == g_subject.instance + "#hb") {
         ++heartbeats_;
@@ -92,6 +130,7 @@ class Conformance : public ::testing::Test {
     w.setProtocolMajor(major);
     w.setHeartbeatIntervalS(0.1);
     w.setHeartbeatTimeoutS(heartbeatTimeoutS);
+    offerSharedMemory(w);
     ASSERT_TRUE(router_->send(g_subject.instance, m));
   }
 
@@ -99,7 +138,10 @@ class Conformance : public ::testing::Test {
   wire::InMessage request(wire::OutMessage& m, std::optional<std::uint64_t> seq = std::nullopt, double timeoutS = 60) {
     const auto s = seq.value_or(++seq_);
     m.envelope().setSeq(s);
-    EXPECT_TRUE(router_->send(g_subject.instance, m));
+    // On the shm path a request built elsewhere follows its "on ZeroMQ" descriptor.
+    if (!link_ || !link_->post(m)) {
+      EXPECT_TRUE(router_->send(g_subject.instance, m));
+    }
     auto reply = receive(timeoutS);
     if (!reply) throw std::runtime_error("no reply within " + std::to_string(timeoutS) + " s");
     EXPECT_EQ(reply->envelope().getReplyTo(), s) << "a reply must name the request it answers";
@@ -107,7 +149,7 @@ class Conformance : public ::testing::Test {
   }
 
   wire::InMessage setup() {
-    wire::OutMessage m;
+    wire::OutMessage m = message();
     auto s = m.envelope().getBody().initSetup();
     s.setSceneFile(g_subject.scene);
     s.setSceneYaml(readFile(g_subject.scene));
@@ -127,7 +169,7 @@ class Conformance : public ::testing::Test {
 
   wire::InMessage advance(std::uint32_t steps, double dt, std::optional<std::uint64_t> seq = std::nullopt,
                           bool wantEnergies = true) {
-    wire::OutMessage m;
+    wire::OutMessage m = message();
     auto a = m.envelope().getBody().initAdvance();
     a.setWantEnergies(wantEnergies);
     a.setSteps(steps);
@@ -167,7 +209,7 @@ class Conformance : public ::testing::Test {
   }
 
   void expectAlive() {
-    wire::OutMessage m;
+    wire::OutMessage m = message();
     m.envelope().getBody().initFieldsRequest();
     auto r = request(m);
     EXPECT_FALSE(r.envelope().getBody().isHello()) << "the solver restarted";
@@ -175,6 +217,8 @@ class Conformance : public ::testing::Test {
 
   fs::path dir_;
   std::optional<wire::RouterSocket> router_;
+  std::unique_ptr<wire::CouplerDoorbell> doorbell_;  // --data shm
+  std::shared_ptr<wire::ShmLink> link_;
   std::optional<testing::Subprocess> solver_;
   std::optional<wire::InMessage> hello_;
   std::uint64_t seq_ = 0;
@@ -239,11 +283,11 @@ TEST_F(Conformance, EnergiesAreLeftOutUnlessAskedFor) {
 TEST_F(Conformance, FieldsAreServedAndUnknownNamesRejected) {
   welcome();
   setup();
-  wire::OutMessage all;
+  wire::OutMessage all = message();
   all.envelope().getBody().initFieldsRequest();
   auto r = request(all);
   EXPECT_TRUE(r.envelope().getBody().isFields()) << describe(r);
-  wire::OutMessage bogus;
+  wire::OutMessage bogus = message();
   bogus.envelope().getBody().initFieldsRequest().initNames(1).set(0, "no-such-field-xyz");
   expectError(request(bogus), Code::BAD_INPUT);
 }
@@ -254,7 +298,7 @@ TEST_F(Conformance, CheckpointAndRestoreContinueBitForBit) {
   ASSERT_TRUE(advance(2, dt_).envelope().getBody().isAdvanced());
   time_ = 2 * dt_;
   const auto path = (dir_ / "run" / "state.chk").string();
-  wire::OutMessage chk;
+  wire::OutMessage chk = message();
   chk.envelope().getBody().initCheckpoint().setPath(path);
   auto done = request(chk);
   ASSERT_TRUE(done.envelope().getBody().isCheckpointDone()) << describe(done);
@@ -263,7 +307,7 @@ TEST_F(Conformance, CheckpointAndRestoreContinueBitForBit) {
   const auto exchangeAtCheckpoint = exchange_;
   const auto first = fingerprintOf(advance(3, dt_));
 
-  wire::OutMessage restore;
+  wire::OutMessage restore = message();
   restore.envelope().getBody().initRestore().setPath(path);
   auto restored = request(restore);
   ASSERT_TRUE(restored.envelope().getBody().isRestored()) << describe(restored);
@@ -277,7 +321,7 @@ TEST_F(Conformance, CheckpointAndRestoreContinueBitForBit) {
 TEST_F(Conformance, RestoreFromAMissingFileIsAnError) {
   welcome();
   setup();
-  wire::OutMessage restore;
+  wire::OutMessage restore = message();
   restore.envelope().getBody().initRestore().setPath((dir_ / "nothing.chk").string());
   auto r = request(restore);
   ASSERT_TRUE(r.envelope().getBody().isError()) << describe(r);
@@ -328,7 +372,7 @@ TEST_F(Conformance, MalformedBytesAreAnsweredNotFatal) {
 TEST_F(Conformance, ReplyKindsAreNotAcceptedAsRequests) {
   welcome();
   setup();
-  wire::OutMessage m;
+  wire::OutMessage m = message();
   m.envelope().getBody().initAdvanced();
   expectError(request(m), Code::UNEXPECTED);
   expectAlive();
@@ -337,7 +381,7 @@ TEST_F(Conformance, ReplyKindsAreNotAcceptedAsRequests) {
 TEST_F(Conformance, ShutdownEndsTheProcessCleanly) {
   welcome();
   setup();
-  wire::OutMessage m;
+  wire::OutMessage m = message();
   m.envelope().getBody().initShutdown().setReason("conformance");
   auto r = request(m);
   EXPECT_TRUE(r.envelope().getBody().isShutdownDone()) << describe(r);
@@ -375,6 +419,7 @@ int main(int argc, char** argv) {
     if (a == "--solver") cosim::conformance::g_subject.binary = argv[++i];
     else if (a == "--scene") cosim::conformance::g_subject.scene = argv[++i];
     else if (a == "--instance") cosim::conformance::g_subject.instance = argv[++i];
+    else if (a == "--data") cosim::conformance::g_data = argv[++i];
   }
   return RUN_ALL_TESTS();
 }
