@@ -123,9 +123,10 @@ def trial(rng, binaries, config, sets, work, k, reference, full_wall):
     code, hung = wait(p, 120)
     result = {"killed": "solver" if killed_solver else "coupler", "hung": hung, "detected": False,
               "before_checkpoint": False, "identical": None, "orphans": 0, "ended_first": code == 0}
-    if killed_solver and code in (3, 4):  # refused before time zero, or failed during the run
+    if killed_solver and code in (3, 4):  # refused before time zero (its params check too), or failed during the run
         with open(out + ".log") as f:
-            result["detected"] = "peer '" in f.read()
+            text = f.read()
+            result["detected"] = "peer '" in text or "while checking its params" in text
     if code == 0:  # the run ended before the kill landed
         result["identical"] = same(physics(out), reference)
         result["orphans"] = len(run_dir_processes(out))

@@ -153,11 +153,15 @@ int couplerMain(int argc, char** argv) {
       const auto checked = checkSolverParams(scene, solverCheckDirectory());
       const auto& problems = checked.problems;
       for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
+      for (const auto& f : checked.failures) std::cerr << "coupler: " << f << "\n";
       describeSetupMemory(scene, checked, std::cout);
-      std::cout << "solver params: " << (problems.empty() ? "every solver the run starts accepts its section"
-                                                           : std::to_string(problems.size()) + " solver(s) refuse theirs")
+      std::cout << "solver params: "
+                << (!problems.empty()          ? std::to_string(problems.size()) + " solver(s) refuse theirs"
+                    : !checked.failures.empty() ? std::to_string(checked.failures.size()) + " solver(s) failed to check theirs"
+                                                : std::string("every solver the run starts accepts its section"))
                 << "\n";
-      return problems.empty() ? kExitOk : kExitBadConfig;
+      if (!problems.empty()) return kExitBadConfig;
+      return checked.failures.empty() ? kExitOk : kExitRefused;
     }
     if (command == "sbatch") {
       batch.outDir = options.outDir;

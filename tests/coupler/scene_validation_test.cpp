@@ -674,6 +674,32 @@ TEST_F(CouplerCheck, ASolverThatRefusesItsParamsIsNamedWithItsMessage) {
   EXPECT_TRUE(fs::is_empty(cwd_.path()));
 }
 
+// A check that ends without a verdict (killed, crashed) is the binary's
+// failure, not a refusal of the scene: named so, and refused as a run that
+// cannot start (exit 3), not as a bad scene (exit 2).
+TEST_F(CouplerCheck, ASolverKilledWhileCheckingIsAFailureNotARefusal) {
+  TempDir sceneDir;
+  sceneDir.write("dies", "#!/bin/sh\nkill -9 $$\n");
+  fs::permissions(sceneDir.path() / "dies", fs::perms::owner_all);
+  const auto scene = sceneDir.write("dies.yaml",
+                                    "scene: dies\n"
+                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                                    "solvers:\n"
+                                    "  - {name: left, kind: mock, params: {seed: 1}}\n"
+                                    "  - {name: right, kind: mock, binary: ./dies}\n"
+                                    "couplings:\n"
+                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n");
+  const auto checked = runProcess({couplerBinary(), "check", scene}, cwd_.path());
+  EXPECT_EQ(checked.exitCode, cosim::coupler::kExitRefused) << checked.out << checked.err;
+  EXPECT_NE(checked.err.find("solver 'right' was killed by signal 9 while checking its params"), std::string::npos)
+      << checked.err;
+  EXPECT_EQ(checked.err.find("refuses"), std::string::npos) << checked.err;
+  EXPECT_NE(checked.out.find("solver params: 1 solver(s) failed to check theirs"), std::string::npos) << checked.out;
+  const auto run = runProcess({couplerBinary(), "run", scene, "--no-progress"}, cwd_.path());
+  EXPECT_EQ(run.exitCode, cosim::coupler::kExitRefused) << run.err;
+  EXPECT_NE(run.err.find("run refused before any solver started"), std::string::npos) << run.err;
+}
+
 TEST_F(CouplerCheck, SrunOutsideAnAllocationIsRefusedAndSbatchWritesTheScript) {
   ::unsetenv("SLURM_JOB_ID");  // this test's coupler runs in no allocation, wherever the tests run
   TempDir sceneDir;

@@ -1016,10 +1016,12 @@ fs::path solverCheckDirectory() {
 int runScene(const Scene& scene, const RunOptions& options) {
   installStopSignalHandlers();
   // Before anything starts for real: what only the solvers can judge.
-  if (const auto problems = checkSolverParams(scene, solverCheckDirectory()).problems; !problems.empty()) {
-    for (const auto& p : problems) std::cerr << scene.file << ": " << p << "\n";
+  const auto checked = checkSolverParams(scene, solverCheckDirectory());
+  if (!checked.problems.empty() || !checked.failures.empty()) {
+    for (const auto& p : checked.problems) std::cerr << scene.file << ": " << p << "\n";
+    for (const auto& f : checked.failures) std::cerr << "coupler: " << f << "\n";
     std::cerr << "coupler: run refused before any solver started\n";
-    return kExitBadConfig;
+    return checked.problems.empty() ? kExitRefused : kExitBadConfig;
   }
   CouplerRun run(scene, options);
   return run.run();

@@ -77,7 +77,15 @@ std::string message(const fs::path& log) {
   return text.empty() ? "(no message)" : text;
 }
 
-std::string outcome(const Check& c, long& peakKb) {
+/// What a check's exit says: nothing (accepted), a refusal of the scene
+/// (exit 2, the contract of --check), or a failure of the binary (any other
+/// exit, a signal, no end in time), which is no fault of the scene.
+struct CheckOutcome {
+  std::string problem;
+  bool failed = false;
+};
+
+CheckOutcome outcome(const Check& c, long& peakKb) {
   const auto start = std::chrono::steady_clock::now();
   int status = 0;
   struct rusage usage {};
@@ -85,16 +93,18 @@ std::string outcome(const Check& c, long& peakKb) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > kCheckTimeoutS) {
       ::kill(c.pid, SIGKILL);
       ::waitpid(c.pid, &status, 0);
-      return "solver '" + c.solver + "' did not finish checking its params in " +
-             std::to_string(static_cast<int>(kCheckTimeoutS)) + " s";
+      return {"solver '" + c.solver + "' did not finish checking its params in " +
+                  std::to_string(static_cast<int>(kCheckTimeoutS)) + " s", true};
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   peakKb = usage.ru_maxrss;  // kB on Linux
   if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return {};
-  const std::string how = WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
-                                            : "signal " + std::to_string(WTERMSIG(status));
-  return "solver '" + c.solver + "' refuses its params (" + how + "): " + message(c.log);
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 2)
+    return {"solver '" + c.solver + "' refuses its params (exit 2): " + message(c.log), false};
+  const std::string how = WIFEXITED(status) ? "exited with code " + std::to_string(WEXITSTATUS(status))
+                                            : "was killed by signal " + std::to_string(WTERMSIG(status));
+  return {"solver '" + c.solver + "' " + how + " while checking its params: " + message(c.log), true};
 }
 
 }  // namespace
@@ -118,8 +128,9 @@ SolverCheckResult checkSolverParams(const Scene& scene, const fs::path& scratch)
   }
   for (const auto& c : checks) {
     long peakKb = 0;
-    if (auto problem = outcome(c, peakKb); !problem.empty()) result.problems.push_back(std::move(problem));
-    else result.peakResidentKb[c.solver] = peakKb;
+    auto o = outcome(c, peakKb);
+    if (o.problem.empty()) result.peakResidentKb[c.solver] = peakKb;
+    else (o.failed ? result.failures : result.problems).push_back(std::move(o.problem));
   }
   std::error_code ignored;
   fs::remove_all(scratch, ignored);

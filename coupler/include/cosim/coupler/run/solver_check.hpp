@@ -24,6 +24,9 @@ void fillSetup(proto::Setup::Builder setup, const Scene& scene, const SolverSpec
 struct SolverCheckResult {
   /// One per solver that refused its section, naming the solver and carrying its own message.
   std::vector<std::string> problems;
+  /// One per solver whose check failed without a verdict (crashed, killed,
+  /// exited otherwise, or ran out of time): the binary's fault, not the scene's.
+  std::vector<std::string> failures;
   /// The peak resident size of each solver's check [kB] (the kernel's count
   /// for the process): what its setup took, meshes, particles and cells loaded.
   std::map<std::string, long> peakResidentKb;
