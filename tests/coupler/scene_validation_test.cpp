@@ -623,20 +623,32 @@ TEST_F(CouplerCheck, DemoSceneExitsZeroAndListsTheProcesses) {
   EXPECT_TRUE(fs::is_empty(cwd_.path())) << "check created output (e.g. runs/two-mocks)";
 }
 
+/// A scene of two mock solvers (their entries' keys after the name) coupled
+/// by one direct transfer of `array`, written as `file` into `dir`.
+std::string twoMockScene(const TempDir& dir, const std::string& file, const std::string& left, const std::string& right,
+                         const std::string& array = "state") {
+  return dir.write(file, "scene: " + fs::path(file).stem().string() + "\n"
+                         "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
+                         "solvers:\n"
+                         "  - {name: left, kind: mock" + left + "}\n"
+                         "  - {name: right, kind: mock" + right + "}\n"
+                         "couplings:\n"
+                         "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [" + array + "]}\n");
+}
+
+/// An executable shell script in `dir`.
+void writeScript(const TempDir& dir, const std::string& name, const std::string& text) {
+  dir.write(name, "#!/bin/sh\n" + text);
+  fs::permissions(dir.path() / name, fs::perms::owner_all);
+}
+
 TEST_F(CouplerCheck, RunsTheSolversOnlyInTheirCheckMode) {
   // A solver binary that notes how it was run: check runs it with --check (and
   // the scene's args), never as a peer of a run.
   TempDir sceneDir;
-  sceneDir.write("spy_solver", "#!/bin/sh\necho \"$*\" >> \"$(dirname \"$0\")/started\"\n");
-  fs::permissions(sceneDir.path() / "spy_solver", fs::perms::owner_all);
-  const auto scene = sceneDir.write("spy.yaml",
-                                    "scene: spy\n"
-                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
-                                    "solvers:\n"
-                                    "  - {name: left, kind: mock, binary: ./spy_solver, args: [--flag]}\n"
-                                    "  - {name: right, kind: mock, binary: ./spy_solver}\n"
-                                    "couplings:\n"
-                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [x]}\n");
+  writeScript(sceneDir, "spy_solver", "echo \"$*\" >> \"$(dirname \"$0\")/started\"\n");
+  const auto scene =
+      twoMockScene(sceneDir, "spy.yaml", ", binary: ./spy_solver, args: [--flag]", ", binary: ./spy_solver", "x");
   const auto r = runProcess({couplerBinary(), "check", scene}, cwd_.path());
   EXPECT_EQ(r.exitCode, cosim::coupler::kExitOk) << "stderr: " << r.err;
   const auto spy = (sceneDir.path() / "spy_solver").lexically_normal().string();
@@ -657,14 +669,7 @@ TEST_F(CouplerCheck, RunsTheSolversOnlyInTheirCheckMode) {
 
 TEST_F(CouplerCheck, ASolverThatRefusesItsParamsIsNamedWithItsMessage) {
   TempDir sceneDir;
-  const auto scene = sceneDir.write("mocks.yaml",
-                                    "scene: mocks\n"
-                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
-                                    "solvers:\n"
-                                    "  - {name: left, kind: mock, params: {seed: 1}}\n"
-                                    "  - {name: right, kind: mock, params: {seed: 2, length: -5}}\n"
-                                    "couplings:\n"
-                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n");
+  const auto scene = twoMockScene(sceneDir, "mocks.yaml", ", params: {seed: 1}", ", params: {seed: 2, length: -5}");
   const auto r = runProcess({couplerBinary(), "check", scene}, cwd_.path());
   EXPECT_EQ(r.exitCode, cosim::coupler::kExitBadConfig) << r.out << r.err;
   EXPECT_NE(r.err.find("solver 'right' refuses its params (exit 2)"), std::string::npos) << r.err;
@@ -679,16 +684,8 @@ TEST_F(CouplerCheck, ASolverThatRefusesItsParamsIsNamedWithItsMessage) {
 // cannot start (exit 3), not as a bad scene (exit 2).
 TEST_F(CouplerCheck, ASolverKilledWhileCheckingIsAFailureNotARefusal) {
   TempDir sceneDir;
-  sceneDir.write("dies", "#!/bin/sh\nkill -9 $$\n");
-  fs::permissions(sceneDir.path() / "dies", fs::perms::owner_all);
-  const auto scene = sceneDir.write("dies.yaml",
-                                    "scene: dies\n"
-                                    "schedule: {kind: lockstep, dt: 1.0e-3, end_time: 0.01}\n"
-                                    "solvers:\n"
-                                    "  - {name: left, kind: mock, params: {seed: 1}}\n"
-                                    "  - {name: right, kind: mock, binary: ./dies}\n"
-                                    "couplings:\n"
-                                    "  - {name: l2r, kind: direct-transfer, from: left, to: right, arrays: [state]}\n");
+  writeScript(sceneDir, "dies", "kill -9 $$\n");
+  const auto scene = twoMockScene(sceneDir, "dies.yaml", ", params: {seed: 1}", ", binary: ./dies");
   const auto checked = runProcess({couplerBinary(), "check", scene}, cwd_.path());
   EXPECT_EQ(checked.exitCode, cosim::coupler::kExitRefused) << checked.out << checked.err;
   EXPECT_NE(checked.err.find("solver 'right' was killed by signal 9 while checking its params"), std::string::npos)
