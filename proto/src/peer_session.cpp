@@ -313,7 +313,10 @@ std::string PeerSession::shmObstacle(const Peer& p) const {
 bool PeerSession::offerSharedMemory(const std::string& name, Peer& p) {
   const auto mode = options_.shm.mode;
   if (mode == ShmOptions::Mode::zmq) return false;
+  // Why not: a peer the path is not for (debug), or a segment that could not
+  // be made for one it is for (warned: the run is slower than it should be).
   std::string why = shmObstacle(p);
+  bool failed = false;
   if (why.empty()) {
     try {
       if (!doorbell_) doorbell_ = std::make_unique<CouplerDoorbell>(options_.shm.directory + "/doorbell");
@@ -322,11 +325,13 @@ bool PeerSession::offerSharedMemory(const std::string& name, Peer& p) {
       return true;
     } catch (const std::exception& e) {
       why = e.what();
+      failed = true;
     }
   }
   if (mode == ShmOptions::Mode::shm)
     fault(name, "cannot use shared memory (transport.data: shm): " + why);
-  log::debug("peer '" + name + "' talks over ZeroMQ: " + why);
+  const std::string text = "peer '" + name + "' talks over ZeroMQ: " + why;
+  failed ? log::warn(text) : log::debug(text);
   return false;
 }
 
