@@ -79,7 +79,7 @@ constexpr double kSmallIpcMedianUs = 50.0;
 constexpr double kBulkGBps = 2.0;
 constexpr double kSmallShmFloorFactor = 2.0;
 constexpr double kBulkShmGBps = 5.0;
-constexpr double kShmSpinS = 20e-6;  // the scene's default transport.shm_spin_us
+const double kShmSpinS = wire::ShmOptions{}.spinS;  // the scene's default transport.shm_spin_us
 constexpr const char* kShmPrefix = "shm:";
 constexpr std::size_t kSmallMaxBytes = 1024;
 constexpr std::size_t kBulkMinBytes = std::size_t{16} << 20;
@@ -735,7 +735,7 @@ std::vector<Row> runShared(EchoChild& child, const Options& options, Placement p
   std::vector<Row> rows;
   {
     wire::CouplerDoorbell doorbell((runDir.path() / "doorbell").string());
-    auto link = wire::ShmLink::create((runDir.path() / kPeerName).string(), std::uint64_t{4} << 30, doorbell);
+    auto link = wire::ShmLink::create((runDir.path() / kPeerName).string(), wire::ShmOptions{}.laneBytes, doorbell);
     child.sendEndpoint(kShmPrefix + link->path() + " " + doorbell.path());
     std::uint64_t seq = 0;
     auto channel = sharedChannel(*link, child);

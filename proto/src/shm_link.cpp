@@ -44,6 +44,9 @@ void* mapFile(int fd, std::size_t bytes, const std::string& path) {
   return p;
 }
 
+// The doorbell file: one Doorbell at its start.
+constexpr std::size_t kDoorbellBytes = 4096;
+
 long futex(std::atomic<std::uint32_t>* word, int op, std::uint32_t value, const timespec* timeout) {
   return ::syscall(SYS_futex, reinterpret_cast<std::uint32_t*>(word), op, value, timeout, nullptr, 0);
 }
@@ -124,18 +127,21 @@ bool spinFor(double spinS, const std::function<bool()>& ready) {
 CouplerDoorbell::CouplerDoorbell(const std::string& path) : path_(path) {
   const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) throw std::runtime_error(systemError("cannot create the doorbell", path));
-  if (::posix_fallocate(fd, 0, 4096) != 0) {
+  void* p = nullptr;
+  try {
+    if (::posix_fallocate(fd, 0, kDoorbellBytes) != 0) throw std::runtime_error("cannot size the doorbell '" + path + "'");
+    p = mapFile(fd, kDoorbellBytes, path);
+  } catch (...) {
     ::close(fd);
     ::unlink(path.c_str());
-    throw std::runtime_error("cannot size the doorbell '" + path + "'");
+    throw;
   }
-  void* p = mapFile(fd, 4096, path);
   ::close(fd);
   bell_ = new (p) Doorbell();
 }
 
 CouplerDoorbell::~CouplerDoorbell() {
-  ::munmap(bell_, 4096);
+  ::munmap(bell_, kDoorbellBytes);
   ::unlink(path_.c_str());
 }
 
@@ -180,7 +186,7 @@ struct ShmLink::Impl {
 
   ~Impl() {
     if (header) ::munmap(header, mappedBytes);
-    if (doorbellMapping) ::munmap(doorbellMapping, 4096);
+    if (doorbellMapping) ::munmap(doorbellMapping, kDoorbellBytes);
     if (fd >= 0) ::close(fd);
     if (owner && linked) ::unlink(path.c_str());
   }
@@ -367,16 +373,15 @@ std::shared_ptr<ShmLink> ShmLink::open(const std::string& segment, const std::st
   const int bellFd = ::open(doorbell.c_str(), O_RDWR | O_CLOEXEC);
   if (bellFd < 0) throw std::runtime_error(systemError("cannot open the coupler's doorbell", doorbell));
   struct stat bst {};
-  if (::fstat(bellFd, &bst) != 0 || bst.st_size < 4096) {
+  try {
+    if (::fstat(bellFd, &bst) != 0 || static_cast<std::size_t>(bst.st_size) < kDoorbellBytes)
+      throw std::runtime_error("'" + doorbell + "' is not a doorbell (too short)");
+    impl->doorbellMapping = mapFile(bellFd, kDoorbellBytes, doorbell);
+  } catch (...) {
     ::close(bellFd);
-    throw std::runtime_error("'" + doorbell + "' is not a doorbell (too short)");
+    throw;
   }
-  impl->doorbellMapping = ::mmap(nullptr, 4096, PROT_READ | PROT_WRITE, MAP_SHARED, bellFd, 0);
   ::close(bellFd);
-  if (impl->doorbellMapping == MAP_FAILED) {
-    impl->doorbellMapping = nullptr;
-    throw std::runtime_error(systemError("cannot map the coupler's doorbell", doorbell));
-  }
   impl->out = 1;
   impl->in = 0;
   impl->outBell = static_cast<Doorbell*>(impl->doorbellMapping);

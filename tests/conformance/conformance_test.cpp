@@ -78,16 +78,16 @@ class Conformance : public ::testing::Test {
     for (auto c : hello_->envelope().getBody().getHello().getCapabilities()) caps.emplace_back(c.cStr());
     ASSERT_NE(std::find(caps.begin(), caps.end(), "shm-data"), caps.end()) << "the solver does not offer shm-data";
     doorbell_ = std::make_unique<wire::CouplerDoorbell>((dir_ / "doorbell").string());
-    link_ = wire::ShmLink::create((dir_ / "segment").string(), std::uint64_t{1} << 30, *doorbell_);
+    link_ = wire::ShmLink::create((dir_ / "segment").string(), wire::ShmOptions{}.laneBytes, *doorbell_);
     w.setDataSegment(link_->path());
     w.setDoorbell(doorbell_->path());
-    w.setSpinS(20e-6);
+    w.setSpinS(wire::ShmOptions{}.spinS);
   }
 
   /// The next reply in the reply lane, if one comes within 50 ms; a
   /// malformed one is a failure, one announced as on ZeroMQ is for the socket.
   std::optional<wire::InMessage> takeFromLane() {
-    wire::waitForDoorbell(doorbell_->bell(), 20e-6, 0.05, [this] { return link_->hasIncoming(); });
+    wire::waitForDoorbell(doorbell_->bell(), wire::ShmOptions{}.spinS, 0.05, [this] { return link_->hasIncoming(); });
     auto item = link_->take();
     if (!item) return std::nullopt;
     EXPECT_NE(item->kind, wire::LaneItem::Kind::malformed) << "the solver wrote a malformed reply: " << item->error;
